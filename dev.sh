@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# The two commands of README.md, for a fresh machine with only Python 3.11+:
+#   bash dev.sh run    set up, then run the default pool
+#   bash dev.sh test   set up, then run every test
+# Setup makes .venv with the pinned ROS 2 Jazzy wheels (requirements.txt) once, and again
+# whenever requirements.txt changes.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")"
+root=$(pwd)
+venv="$root/.venv"
+
+setup() {
+  python3 -c 'import sys; sys.exit(sys.version_info < (3, 11))' \
+    || { echo 'pool_sim needs Python 3.11 or newer as python3' >&2; exit 1; }
+  if [ ! -x "$venv/bin/python" ] || ! cmp -s requirements.txt "$venv/.requirements"; then
+    echo "setting up $venv (pinned ROS 2 Jazzy wheels; about a minute)" >&2
+    rm -rf "$venv"
+    python3 -m venv "$venv"
+    "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r requirements.txt
+    cp requirements.txt "$venv/.requirements"
+  fi
+  # The wheels do not set it; ament_index_python finds packages through it.
+  export AMENT_PREFIX_PATH="$venv${AMENT_PREFIX_PATH:+:$AMENT_PREFIX_PATH}"
+  export PYTHONPATH="$root${PYTHONPATH:+:$PYTHONPATH}"
+}
+
+case "${1:-}" in
+  run)
+    setup
+    shift
+    exec "$venv/bin/python" -m pool_sim.headless "$@"
+    ;;
+  test)
+    setup
+    shift
+    exec "$venv/bin/python" -m pytest "$@"
+    ;;
+  *)
+    echo 'usage: bash dev.sh run|test [args]' >&2
+    exit 2
+    ;;
+esac

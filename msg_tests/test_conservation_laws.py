@@ -1,0 +1,65 @@
+"""Laws: energy never grows without an external force, lift does no work against the flow."""
+import numpy as np
+import pytest
+
+from pool_sim.physics import Scene, Simulation
+from pool_sim.physics.effects import lift_force
+from scenes import G, one_sphere
+
+SCENES = {
+    'default pool (contacts)': lambda rate: Scene.default().with_values(physics_rate_hz=rate),
+    'cork dropped on the water': lambda rate: one_sphere(0.2, 250.0, position=(0, 0, 1.0),
+                                                         physics_rate_hz=rate),
+    'ping-pong ball under water': lambda rate: one_sphere(0.02, mass=0.0027,
+                                                          physics_rate_hz=rate),
+    'steel thrown sideways': lambda rate: one_sphere(0.1, 7850.0, velocity=(6.0, 2.0, 5.0),
+                                                     position=(0, 0, 1.0), physics_rate_hz=rate),
+}
+
+
+@pytest.mark.parametrize('rate_hz', [30.0, 200.0])
+@pytest.mark.parametrize('name', sorted(SCENES))
+def test_mechanical_energy_never_drifts_upward_with_the_default_integrator(name, rate_hz):
+    """Bound: within one step, gravity's work on a sphere is at most m*|g|*v_max*dt.
+
+    The energy may rise above the lowest value it has reached so far by at most that (a
+    one-step wobble); anything more would be a drift. It must end below where it started.
+    """
+    sim = Simulation(SCENES[name](rate_hz))
+    start = sim.mechanical_energy()
+    lowest, worst_rise, top_speed = start.copy(), np.zeros_like(start), np.zeros_like(start)
+    for _ in range(int(20.0 * rate_hz)):
+        sim.step()
+        energy = sim.mechanical_energy()
+        worst_rise = np.maximum(worst_rise, energy - lowest)
+        lowest = np.minimum(lowest, energy)
+        top_speed = np.maximum(top_speed, np.linalg.norm(sim.spheres.velocity, axis=0))
+    bound = sim.spheres.mass * G * top_speed * sim.max_step
+    assert np.all(worst_rise <= bound), (worst_rise, bound)
+    assert np.all(sim.mechanical_energy() < start)
+
+
+def test_lift_is_perpendicular_to_the_relative_velocity_with_the_stated_magnitude():
+    rng = np.random.default_rng(7)
+    n = 200
+    scene = one_sphere(0.1, 500.0, position=(0, 0, 2.0), water__current=[0.3, -0.2, 0.1],
+                       air__wind=[1.0, 2.0, 0.0], ball__lift_coefficient=0.8)
+    sim = Simulation(scene)
+    spheres = sim.spheres
+    for water_fraction in (np.zeros(1), np.ones(1)):
+        medium = sim.environment.water if water_fraction[0] else sim.environment.air
+        for _ in range(n):
+            velocity = rng.normal(size=(3, 1)) * 5.0
+            spheres.lift_normal = rng.normal(size=(3, 1))
+            spheres.lift_normal /= np.linalg.norm(spheres.lift_normal)
+            force = np.zeros((3, 1))
+            lift_force(sim.environment, spheres, spheres.position, velocity, water_fraction,
+                       force)
+            relative = velocity[:, 0] - medium.flow_velocity
+            assert abs(force[:, 0] @ relative) <= 1e-12 * np.linalg.norm(force) * np.linalg.norm(
+                relative)
+            expected = 0.5 * medium.density * 0.8 * spheres.lift_area[0] * relative @ relative
+            assert np.linalg.norm(force) == pytest.approx(expected, rel=1e-12)
+            # In the plane of the normal and the flow: no component along n x v_rel.
+            assert abs(force[:, 0] @ np.cross(spheres.lift_normal[:, 0], relative)) <= 1e-9 * (
+                np.linalg.norm(force) * np.linalg.norm(relative))

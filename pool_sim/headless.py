@@ -1,0 +1,29 @@
+"""Run a scene without ROS and print a table of the spheres over time.
+
+    python -m pool_sim.headless [params.yaml] [--seconds 20] [--every 1]
+"""
+import argparse
+
+from pool_sim.physics import Scene, Simulation
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('params_file', nargs='?', help='ROS params YAML (default: the pool)')
+    parser.add_argument('--seconds', type=float, default=20.0, help='simulated time, s')
+    parser.add_argument('--every', type=float, default=1.0, help='table row interval, s')
+    args = parser.parse_args(argv)
+    scene = Scene.from_yaml(args.params_file) if args.params_file else Scene.default()
+    sim = Simulation(scene)
+    names = sim.spheres.names
+    print('   t [s] ' + ''.join(f'| {n:>8} z [m]  vz [m/s] ' for n in names))
+    rows = round(args.seconds / args.every)
+    for row in range(rows + 1):
+        sim.advance(row * args.every - sim.time)
+        cells = ''.join(f'| {z:>15.3f} {vz:>9.3f} ' for z, vz in zip(
+            sim.spheres.position[2], sim.spheres.velocity[2]))
+        print(f'{sim.time:8.2f} {cells}')
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,75 @@
+"""Floor, walls and ceiling: resolved after each step, so no step size lets a sphere through.
+
+A sphere whose step ended past a face is put back on it. Its normal velocity becomes
+restitution x the speed it had *before* the step, not after it: a sphere resting on the floor
+gains g*dt during a step and would otherwise bounce back by e*g*dt and jitter for ever.
+Friction on the floor works with impulses: Coulomb's bound is mu x the normal impulse the
+floor gave in this step, which for a resting sphere is exactly its weight x dt.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ContactParameters:
+    """restitution: 0..1.  static_friction >= kinetic_friction >= 0.  rolling_friction >= 0.
+
+    A point mass has no spin, so rolling resistance is modelled as a further retarding force
+    rolling_friction x N on a sphere that moves along the floor.
+    """
+
+    restitution: float = 0.5
+    static_friction: float = 0.6
+    kinetic_friction: float = 0.4
+    rolling_friction: float = 0.01
+
+
+def resolve_contacts(pool, params, radius, old_position, old_velocity,
+                     position, velocity, dt, friction):
+    """Push spheres back inside the pool and bounce them; friction on the floor if asked.
+
+    position, velocity: (3, n), changed in place.  old_*: the state at the step's start.
+    radius: (n,) m.  Returns nothing.
+    """
+    floor_impulse_per_mass = None
+    for axis in range(3):
+        for inward, limit in ((1.0, pool.corner_min[axis] + radius),
+                              (-1.0, pool.corner_max[axis] - radius)):
+            past = inward * (position[axis] - limit) < 0.0
+            if not past.any():
+                continue
+            normal_speed = inward * velocity[axis, past]
+            speed_before = inward * old_velocity[axis, past]
+            bounced = np.where(normal_speed >= 0.0, normal_speed,
+                               params.restitution * np.maximum(-speed_before, 0.0))
+            position[axis, past] = limit[past]
+            velocity[axis, past] = inward * bounced
+            if axis == 2 and inward > 0.0:
+                floor_impulse_per_mass = np.zeros_like(radius)
+                floor_impulse_per_mass[past] = bounced - normal_speed
+    if friction and floor_impulse_per_mass is not None:
+        _floor_friction(params, floor_impulse_per_mass, old_position, position, velocity, dt)
+
+
+def _floor_friction(params, impulse_per_mass, old_position, position, velocity, dt):
+    """Stick while the needed tangential impulse is within mu_s x normal impulse, else slide.
+
+    A sticking sphere keeps its horizontal place from the step's start: otherwise the tiny
+    slide of each step, undone in velocity only, would add up to a creep.
+    """
+    touching = impulse_per_mass > 0.0
+    tangential = velocity[:2, touching]
+    tangential_speed = np.hypot(tangential[0], tangential[1])
+    normal_impulse = impulse_per_mass[touching]
+    sticks = tangential_speed <= params.static_friction * normal_impulse
+    slowdown = np.minimum(
+        tangential_speed,
+        (params.kinetic_friction + params.rolling_friction) * normal_impulse)
+    scale = np.where(sticks, 0.0, 1.0 - np.divide(
+        slowdown, tangential_speed, out=np.ones_like(slowdown), where=tangential_speed > 0.0))
+    new_tangential = tangential * scale
+    # Position follows the velocity change as a symplectic step would; sticking undoes the slide.
+    moved = position[:2, touching] + dt * (new_tangential - tangential)
+    position[:2, touching] = np.where(sticks, old_position[:2, touching], moved)
+    velocity[:2, touching] = new_tangential

@@ -1,0 +1,83 @@
+"""The world the spheres live in: two fluids split by a horizontal surface, inside a box.
+
+Air fills z > surface_z and water z < surface_z. How much of a sphere is in each is the
+exact spherical cap below the surface (or, for comparison only, the linear approximation).
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Medium:
+    """A fluid at rest or in uniform flow.
+
+    density: kg/m^3.  flow_velocity: (3,) m/s, the wind or current the drag acts against.
+    """
+
+    density: float
+    flow_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+
+@dataclass(frozen=True)
+class Pool:
+    """The box the spheres live in: floor at corner_min[2], ceiling at corner_max[2] (m)."""
+
+    corner_min: np.ndarray
+    corner_max: np.ndarray
+
+    @property
+    def extent(self) -> np.ndarray:
+        return self.corner_max - self.corner_min
+
+
+@dataclass(frozen=True)
+class Environment:
+    """Everything the forces depend on that is not a property of a sphere.
+
+    gravity: (3,) m/s^2, any direction.  surface_z: height of the water surface (m).
+    """
+
+    gravity: np.ndarray
+    air: Medium
+    water: Medium
+    surface_z: float
+    pool: Pool
+
+
+def submerged_depth(z, radius, surface_z):
+    """Height of the sphere's part below the surface, clipped to [0, 2r] (m)."""
+    return np.clip(surface_z - (z - radius), 0.0, 2.0 * radius)
+
+
+def cap_fraction(z, radius, surface_z):
+    """Exact fraction of a sphere's volume below the surface.
+
+    The cap of height h holds pi*h^2*(3r - h)/3 of the sphere's 4*pi*r^3/3.
+    """
+    h_over_r = submerged_depth(z, radius, surface_z) / radius
+    return 0.25 * h_over_r * h_over_r * (3.0 - h_over_r)
+
+
+def linear_fraction(z, radius, surface_z):
+    """The seed's approximation: fraction = depth / diameter. Kept only for comparison."""
+    return submerged_depth(z, radius, surface_z) / (2.0 * radius)
+
+
+def cap_volume_integral(z, radius, surface_z):
+    """W(z) = integral of the submerged volume over the sphere's depth, m^4.
+
+    dW/dz = -V_sub(z), so W builds the buoyancy potential: W = pi*(r*h^3 - h^4/4)/3 while the
+    cap grows, then grows linearly at V once the sphere is under.
+    """
+    full_depth = surface_z - (z - radius)
+    h = np.clip(full_depth, 0.0, 2.0 * radius)
+    under = np.maximum(full_depth - 2.0 * radius, 0.0)
+    volume = 4.0 / 3.0 * np.pi * radius**3
+    return np.pi * (radius * h**3 - 0.25 * h**4) / 3.0 + volume * under
+
+
+def waterline_area(z, radius, surface_z):
+    """Area of the sphere's cross-section at the water surface, m^2 (0 when not crossing it)."""
+    offset = z - surface_z
+    return np.pi * np.maximum(radius * radius - offset * offset, 0.0)
