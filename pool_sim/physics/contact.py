@@ -30,25 +30,22 @@ def resolve_contacts(pool, params, radius, old_position, old_velocity,
     """Push spheres back inside the pool and bounce them; friction on the floor if asked.
 
     position, velocity: (3, n), changed in place.  old_*: the state at the step's start.
-    radius: (n,) m.  Returns nothing.
+    radius: (n,) m.  Returns nothing.  All faces are handled in whole-array operations.
     """
-    floor_impulse_per_mass = None
-    for axis in range(3):
-        for inward, limit in ((1.0, pool.corner_min[axis] + radius),
-                              (-1.0, pool.corner_max[axis] - radius)):
-            past = inward * (position[axis] - limit) < 0.0
-            if not past.any():
-                continue
-            normal_speed = inward * velocity[axis, past]
-            speed_before = inward * old_velocity[axis, past]
-            bounced = np.where(normal_speed >= 0.0, normal_speed,
-                               params.restitution * np.maximum(-speed_before, 0.0))
-            position[axis, past] = limit[past]
-            velocity[axis, past] = inward * bounced
-            if axis == 2 and inward > 0.0:
-                floor_impulse_per_mass = np.zeros_like(radius)
-                floor_impulse_per_mass[past] = bounced - normal_speed
-    if friction and floor_impulse_per_mass is not None:
+    low = pool.corner_min[:, None] + radius
+    high = pool.corner_max[:, None] - radius
+    below, above = position < low, position > high
+    hit = below | above
+    if not hit.any():
+        return
+    inward = np.where(below, 1.0, -1.0)
+    normal_speed = inward * velocity
+    bounced = np.where(normal_speed >= 0.0, normal_speed,
+                       params.restitution * np.maximum(-inward * old_velocity, 0.0))
+    position[hit] = np.where(below, low, high)[hit]
+    velocity[hit] = (inward * bounced)[hit]
+    if friction and below[2].any():
+        floor_impulse_per_mass = np.where(below[2], bounced[2] - normal_speed[2], 0.0)
         _floor_friction(params, floor_impulse_per_mass, old_position, position, velocity, dt)
 
 

@@ -1,0 +1,33 @@
+"""Shared by the benchmarks: many-sphere scenes and a median timer."""
+import statistics
+import time
+
+import numpy as np
+
+from pool_sim.physics import Scene
+
+
+def many_spheres_scene(count, effects, seed=0, **keys):
+    """`count` spheres of random size and density scattered through air and water."""
+    rng = np.random.default_rng(seed)
+    names = [f's{i}' for i in range(count)]
+    params = {'sphere_names': names, 'effects': list(effects), **keys}
+    radius = rng.uniform(0.02, 0.2, count)
+    density = rng.uniform(100.0, 8000.0, count)
+    position = rng.uniform([-3.5, -3.5, -3.5], [3.5, 3.5, 3.5], (count, 3))
+    for i, name in enumerate(names):
+        params[f'{name}.radius'] = float(radius[i])
+        params[f'{name}.mass'] = float(density[i] * 4 / 3 * np.pi * radius[i] ** 3)
+        params[f'{name}.position'] = [float(v) for v in position[i]]
+    return Scene(params)
+
+
+def median_seconds(function, repeats=7, inner=20):
+    """Median over `repeats` of the mean wall time of `inner` calls, s."""
+    samples = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for _ in range(inner):
+            function()
+        samples.append((time.perf_counter() - start) / inner)
+    return statistics.median(samples)
