@@ -22,7 +22,8 @@ setup(
     tests_require=['pytest'],
     entry_points={
         'console_scripts': [
-            'pool_sim = pool_sim.node:main',
+            'pool_sim = pool_sim.ros.simulator_node:main',
+            'depth_keeper = pool_sim.ros.depth_keeper:main',
         ],
     },
 )

@@ -77,18 +77,28 @@ class Spheres:
             raise InvalidInput(
                 f'unknown sphere {name!r}; known spheres: {", ".join(self.names)}') from None
 
-    def set_mass(self, name: str, mass_kg) -> None:
-        i = self.lookup(name)
-        self.mass[i] = check_positive(f'{name}.mass', mass_kg)
+    def check_mass(self, name: str, mass_kg) -> float:
+        """The mass as a float, or InvalidInput; changes nothing."""
+        self.lookup(name)
+        return check_positive(f'{name}.mass', mass_kg)
 
-    def set_radius(self, name: str, radius_m, pool) -> None:
-        """New radius; the sphere is pushed back inside the pool if it now overlaps a wall."""
-        i = self.lookup(name)
+    def check_radius(self, name: str, radius_m, pool) -> float:
+        """The radius as a float if it is > 0 and fits the pool, or InvalidInput."""
+        self.lookup(name)
         radius = check_positive(f'{name}.radius', radius_m)
         if 2.0 * radius >= float(np.min(pool.extent)):
             raise InvalidInput(
                 f'{name}.radius: {radius} m does not fit the pool (smallest side '
                 f'{float(np.min(pool.extent))} m)')
+        return radius
+
+    def set_mass(self, name: str, mass_kg) -> None:
+        self.mass[self.lookup(name)] = self.check_mass(name, mass_kg)
+
+    def set_radius(self, name: str, radius_m, pool) -> None:
+        """New radius; the sphere is pushed back inside the pool if it now overlaps a wall."""
+        radius = self.check_radius(name, radius_m, pool)
+        i = self.lookup(name)
         self.radius[i] = radius
         self.volume[i] = 4.0 / 3.0 * np.pi * radius**3
         self.cross_section[i] = np.pi * radius**2

@@ -1,0 +1,254 @@
+"""The pool_sim node: the physics core on a timer, its state on topics, forces and changes in.
+
+Simulation time is the only clock that counts: physics steps are a fixed dt, publishing and
+wrench timeouts are in simulated seconds, and wall time only sets how fast that time runs
+(real_time_factor). A machine that cannot keep up drops the backlog beyond a bound and the
+simulation runs slower, instead of spiralling.
+"""
+from functools import partial
+import math
+import sys
+import time
+
+import numpy as np
+from geometry_msgs.msg import PoseArray, Wrench
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import SetParametersResult
+from rcl_interfaces.srv import SetParameters
+import rclpy
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.parameter import Parameter, parameter_value_to_python
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock as ClockMessage
+from std_srvs.srv import SetBool, Trigger
+from visualization_msgs.msg import MarkerArray
+
+from pool_sim.physics import InvalidInput, Scene, Simulation
+from pool_sim.ros.messages import scene_markers, SphereMessages, stamp_of
+from pool_sim.ros.parameters import (declare_scene, live_key, overrides_of,
+                                     ROS_OWN_PARAMETERS, scene_from_overrides)
+
+# Wall time one tick may spend stepping at real_time_factor 0, so services stay responsive.
+FAST_TICK_BUDGET_S = 0.02
+# Simulated time the node may fall behind before it drops the backlog.
+MAX_BACKLOG_WALL_S = 0.1
+
+
+class PoolSimNode(Node):
+    """node_kwargs go to rclpy's Node (context, parameter_overrides, namespace, ...)."""
+
+    def __init__(self, node_name='pool_sim', default_scene=None, **node_kwargs):
+        super().__init__(node_name, **node_kwargs)
+        default_scene = default_scene or Scene.default()
+        self.scene = scene_from_overrides(overrides_of(self), default_scene)
+        declare_scene(self, self.scene)
+        self.simulation = Simulation(self.scene)
+        scene, names = self.scene, self.scene.sphere_names
+
+        self.real_time_factor = scene['real_time_factor']
+        self.publish_period = 1.0 / scene['publish_rate_hz']
+        self.wrench_timeout = scene['wrench_timeout']
+        self.paused = False
+        self._reset_timing()
+
+        self.messages = SphereMessages(names, scene['frame_id'])
+        self.pose_publisher = self.create_publisher(PoseArray, '~/poses', 10)
+        self.marker_publisher = self.create_publisher(MarkerArray, '~/markers', 10)
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                             reliability=ReliabilityPolicy.RELIABLE)
+        self.scene_marker_publisher = self.create_publisher(
+            MarkerArray, '~/scene_markers', latched)
+        self.odometry_publishers = [
+            self.create_publisher(Odometry, f'~/{name}/odom', 10) for name in names]
+        self.clock_publisher = (self.create_publisher(ClockMessage, '/clock', 10)
+                                if scene['publish_clock'] else None)
+        for name in names:
+            self.create_subscription(Wrench, f'~/{name}/wrench', partial(self._on_wrench, name),
+                                     10)
+        self.create_service(SetParameters, '~/set_mass', partial(self._on_set_sphere, 'mass'))
+        self.create_service(SetParameters, '~/set_radius',
+                            partial(self._on_set_sphere, 'radius'))
+        self.create_service(Trigger, '~/reset', self._on_reset)
+        self.create_service(SetBool, '~/pause', self._on_pause)
+        self.add_on_set_parameters_callback(self._check_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+
+        self._torque_warned = set()
+        self.scene_marker_publisher.publish(scene_markers(
+            self.simulation.environment.pool, scene['water.surface_z'], scene['frame_id']))
+        self._publish_state()
+        # A steady clock: with use_sim_time the ROS clock would wait for our own /clock.
+        tick_period = (self.simulation.max_step / self.real_time_factor
+                       if self.real_time_factor > 0 else 0.001)
+        self.timer = self.create_timer(tick_period, self._on_tick,
+                                       clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.get_logger().info(
+            f'{len(names)} spheres ({", ".join(names)}); {scene["integrator"]} at '
+            f'{scene["physics_rate_hz"]:g} Hz, publishing at {scene["publish_rate_hz"]:g} Hz '
+            f'of simulated time, real_time_factor {self.real_time_factor:g}; effects: '
+            f'{", ".join(scene["effects"]) or "none"}')
+
+    # -- time --------------------------------------------------------------------------------
+
+    def _reset_timing(self):
+        count = len(self.scene.sphere_names)
+        self.next_publish_time = 0.0
+        self.backlog_s = 0.0
+        self.last_wall = time.monotonic()
+        self.wrench_time = np.full(count, -math.inf)
+        self.steps_taken = 0
+
+    def _on_tick(self):
+        now = time.monotonic()
+        elapsed, self.last_wall = now - self.last_wall, now
+        if self.paused:
+            return
+        dt = self.simulation.max_step
+        stepped = False
+        if self.real_time_factor > 0:
+            limit = max(2.0 * dt, MAX_BACKLOG_WALL_S * self.real_time_factor)
+            self.backlog_s = min(self.backlog_s + elapsed * self.real_time_factor, limit)
+            while self.backlog_s >= dt * (1.0 - 1e-9):
+                self._step()
+                self.backlog_s -= dt
+                stepped = True
+        else:
+            deadline = now + FAST_TICK_BUDGET_S
+            while time.monotonic() < deadline:
+                self._step()
+                stepped = True
+        if stepped and self.clock_publisher is not None:
+            self.clock_publisher.publish(ClockMessage(clock=stamp_of(self.simulation.time)))
+
+    def _step(self):
+        sim = self.simulation
+        if self.wrench_timeout > 0.0:
+            expired = sim.time - self.wrench_time > self.wrench_timeout
+            if expired.any():
+                sim.spheres.external_force[:, expired] = 0.0
+                self.wrench_time[expired] = math.inf
+        sim.step()
+        self.steps_taken += 1
+        if sim.time >= self.next_publish_time - 1e-9:
+            self._publish_state()
+            self.next_publish_time += self.publish_period
+            if self.next_publish_time <= sim.time:
+                self.next_publish_time = sim.time + self.publish_period
+
+    def _publish_state(self):
+        spheres = self.simulation.spheres
+        self.messages.fill(self.simulation.time, spheres.position, spheres.velocity,
+                           spheres.radius)
+        self.pose_publisher.publish(self.messages.poses)
+        self.marker_publisher.publish(self.messages.markers)
+        for publisher, odometry in zip(self.odometry_publishers, self.messages.odometry):
+            publisher.publish(odometry)
+
+    # -- inputs ------------------------------------------------------------------------------
+
+    def _on_wrench(self, name, message):
+        force = (message.force.x, message.force.y, message.force.z)
+        if not all(math.isfinite(f) for f in force):
+            self.get_logger().warning(
+                f'{name}/wrench: refused a force that is not finite {force}; keeping the last',
+                throttle_duration_sec=1.0)
+            return
+        torque = (message.torque.x, message.torque.y, message.torque.z)
+        if any(torque) and name not in self._torque_warned:
+            self._torque_warned.add(name)
+            self.get_logger().warning(
+                f'{name}/wrench: torque {torque} ignored: a point mass cannot turn')
+        self.simulation.set_external_force(name, force)
+        self.wrench_time[self.simulation.spheres.lookup(name)] = self.simulation.time
+
+    def _check_parameters(self, parameters):
+        """One validation path for `ros2 param set`, set_mass and set_radius."""
+        for parameter in parameters:
+            key = live_key(parameter.name, self.scene.sphere_names)
+            if parameter.name in ROS_OWN_PARAMETERS:
+                continue
+            if not key:
+                return SetParametersResult(successful=False, reason=(
+                    f'{parameter.name}: cannot change while running; only <sphere>.mass and '
+                    '<sphere>.radius can. Set it in a params file and restart.'))
+            sphere = parameter.name.rpartition('.')[0]
+            try:
+                if key == 'mass':
+                    self.simulation.spheres.check_mass(sphere, parameter.value)
+                else:
+                    self.simulation.spheres.check_radius(
+                        sphere, parameter.value, self.simulation.environment.pool)
+            except InvalidInput as error:
+                return SetParametersResult(successful=False, reason=str(error))
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, parameters):
+        for parameter in parameters:
+            key = live_key(parameter.name, self.scene.sphere_names)
+            sphere = parameter.name.rpartition('.')[0]
+            if key == 'mass':
+                self.simulation.set_mass(sphere, parameter.value)
+            elif key == 'radius':
+                self.simulation.set_radius(sphere, parameter.value)
+
+    def _on_set_sphere(self, key, request, response):
+        """Each entry: name = sphere, value = new mass (kg) or radius (m); a result each."""
+        for entry in request.parameters:
+            if entry.name not in self.scene.sphere_names:
+                response.results.append(SetParametersResult(
+                    successful=False, reason=f'unknown sphere {entry.name!r}; known spheres: '
+                    f'{", ".join(self.scene.sphere_names)}'))
+                continue
+            value = parameter_value_to_python(entry.value)
+            if isinstance(value, int) and not isinstance(value, bool):
+                value = float(value)  # kept a double, so the parameter keeps one type
+            try:
+                parameter = Parameter(f'{entry.name}.{key}', value=value)
+            except TypeError as error:
+                response.results.append(SetParametersResult(successful=False,
+                                                            reason=str(error)))
+                continue
+            response.results.extend(self.set_parameters([parameter]))
+        return response
+
+    def _on_reset(self, request, response):
+        self.simulation.reset()
+        self._reset_timing()
+        self.set_parameters([
+            Parameter(f'{name}.{key}', value=self.scene[f'{name}.{key}'])
+            for name in self.scene.sphere_names for key in ('mass', 'radius')])
+        self._publish_state()
+        self.next_publish_time = self.publish_period
+        response.success, response.message = True, 'back to the initial scene at time 0'
+        return response
+
+    def _on_pause(self, request, response):
+        self.paused = bool(request.data)
+        response.success = True
+        response.message = 'paused' if self.paused else 'running'
+        return response
+
+
+def main(args=None):
+    """`ros2 run pool_sim pool_sim [--ros-args ...]`; exit code 1 for a bad params file."""
+    rclpy.init(args=args)
+    node, code = None, 0
+    try:
+        node = PoolSimNode()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except InvalidInput as error:
+        rclpy.logging.get_logger('pool_sim').fatal(f'refusing to start: {error}')
+        code = 1
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+if __name__ == '__main__':
+    sys.exit(main())
