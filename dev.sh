@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The two commands of README.md, for a fresh machine with only Python 3.11+:
-#   bash dev.sh run    set up, then run the default pool
+#   bash dev.sh run    set up, then start the pool_sim node on the default pool (Ctrl-C stops)
 #   bash dev.sh test   set up, then run every test
 # Setup makes .venv with the pinned ROS 2 Jazzy wheels (requirements.txt) once, and again
 # whenever requirements.txt changes.
@@ -28,7 +28,7 @@ case "${1:-}" in
   run)
     setup
     shift
-    exec "$venv/bin/python" -m pool_sim.headless "$@"
+    exec "$venv/bin/python" -m pool_sim.ros.simulator_node "$@"
     ;;
   test)
     setup

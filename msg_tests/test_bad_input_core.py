@@ -125,3 +125,9 @@ def test_bad_duration_is_refused():
     with pytest.raises(InvalidInput, match='duration'):
         sim.advance(math.nan)
     assert sim.time == 0.0
+
+
+def test_a_sphere_given_only_a_name_gets_every_default():
+    scene = Scene({'sphere_names': ['plain']})
+    assert scene['plain.radius'] == 0.1 and scene['plain.mass'] == 1.0
+    assert scene['plain.lift_area'] == pytest.approx(math.pi * 0.01)

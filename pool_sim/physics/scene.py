@@ -174,9 +174,9 @@ class Scene:
         for name, spec in GLOBAL_KEYS.items():
             values.setdefault(name, spec.default)
         for name in names:
+            radius = values.setdefault(f'{name}.radius', SPHERE_KEYS['radius'].default)
             for key in SPHERE_KEYS:
-                values.setdefault(f'{name}.{key}',
-                                  sphere_key_default(key, values[f'{name}.radius']))
+                values.setdefault(f'{name}.{key}', sphere_key_default(key, radius))
         self.values = values
         self.sphere_names = names
         self._check_consistency()
@@ -186,11 +186,12 @@ class Scene:
 
     @classmethod
     def from_yaml(cls, path, node_name: str = NODE_NAME) -> 'Scene':
-        """Read the `ros__parameters` of `node_name` (or of `/**`) from a ROS params file."""
+        """Read the `ros__parameters` for `node_name` from a ROS params file: the sections
+        `/**`, `/**/<node_name>`, `<node_name>` and `/<node_name>`, later ones winning."""
         with open(path, encoding='utf-8') as stream:
             document = yaml.safe_load(stream) or {}
         params = {}
-        for section in ('/**', node_name, f'/{node_name}'):
+        for section in ('/**', f'/**/{node_name}', node_name, f'/{node_name}'):
             entry = document.get(section)
             if entry is not None:
                 if not isinstance(entry, dict) or 'ros__parameters' not in entry:

@@ -34,6 +34,9 @@ from pool_sim.ros.parameters import (declare_scene, live_key, overrides_of,
 FAST_TICK_BUDGET_S = 0.02
 # Simulated time the node may fall behind before it drops the backlog.
 MAX_BACKLOG_WALL_S = 0.1
+# Wall seconds between the status lines in the log, and how many spheres they name.
+STATUS_PERIOD_S = 5.0
+STATUS_SPHERES = 4
 
 
 class PoolSimNode(Node):
@@ -76,6 +79,7 @@ class PoolSimNode(Node):
         self.add_post_set_parameters_callback(self._apply_parameters)
 
         self._torque_warned = set()
+        self.next_status_wall = time.monotonic() + STATUS_PERIOD_S
         self.scene_marker_publisher.publish(scene_markers(
             self.simulation.environment.pool, scene['water.surface_z'], scene['frame_id']))
         self._publish_state()
@@ -145,6 +149,17 @@ class PoolSimNode(Node):
         self.marker_publisher.publish(self.messages.markers)
         for publisher, odometry in zip(self.odometry_publishers, self.messages.odometry):
             publisher.publish(odometry)
+        if time.monotonic() >= self.next_status_wall:
+            self.next_status_wall = time.monotonic() + STATUS_PERIOD_S
+            self._log_status()
+
+    def _log_status(self):
+        spheres = self.simulation.spheres
+        shown = ', '.join(f'{name} z={z:.2f} m' for name, z in zip(
+            spheres.names[:STATUS_SPHERES], spheres.position[2, :STATUS_SPHERES].tolist()))
+        more = spheres.count - STATUS_SPHERES
+        self.get_logger().info(f't={self.simulation.time:.1f} s: {shown}'
+                               + (f' and {more} more' if more > 0 else ''))
 
     # -- inputs ------------------------------------------------------------------------------
 

@@ -1,0 +1,69 @@
+"""How the node starts: defaults, params that are refused, an empty effects list, the keeper."""
+from geometry_msgs.msg import PoseArray
+import pytest
+import rclpy
+from rclpy.context import Context
+
+from pool_sim.physics import InvalidInput
+from pool_sim.ros.depth_keeper import DepthKeeper
+from pool_sim.ros.simulator_node import PoolSimNode
+from ros_harness import Harness, overrides
+
+
+def test_without_a_params_file_it_runs_the_seeds_pool_with_every_key_declared():
+    with Harness() as ros:
+        assert ros.sim.get_parameter('sphere_names').value == ['cork', 'steel', 'ice']
+        assert ros.sim.get_parameter('effects').value == [
+            'gravity', 'buoyancy', 'drag', 'contact', 'friction']
+        assert ros.sim.get_parameter('steel.drag_coefficient').value == 0.47
+        assert list(ros.sim.get_parameter('pool.min').value) == [-4.0, -4.0, -4.0]
+        assert ros.sim.get_parameter('integrator').value == 'linearly_implicit_euler'
+
+
+@pytest.mark.parametrize('params, message', [
+    ({'cork.colour': 'red'}, 'cork.colour: unknown key'),
+    ({'cork.mass': 'heavy'}, 'cork.mass: expected a number'),
+    ({'physics_rate_hz': -5.0}, 'physics_rate_hz: must be > 0'),
+    ({'sphere_names': ['a'], 'cork.mass': 1.0}, 'cork.mass: unknown key'),
+    ({'integrator': 'magic'}, 'integrator: must be one of'),
+])
+def test_a_bad_parameter_stops_the_node_naming_the_key(params, message):
+    context = Context()
+    rclpy.init(context=context)
+    try:
+        with pytest.raises(InvalidInput, match=message):
+            PoolSimNode(context=context, parameter_overrides=overrides(params))
+    finally:
+        rclpy.shutdown(context=context)
+
+
+def test_an_empty_effects_list_arrives_unset_and_means_nothing_runs_but_external_forces():
+    params = {'effects': [], 'real_time_factor': 0.0}
+    with Harness(params) as ros:
+        assert ros.sim.simulation.dynamics.effects == ()
+        poses = ros.collect(PoseArray, 'poses')
+        assert ros.spin_until(lambda: ros.sim.simulation.time > 1.0 and poses)
+        # No gravity: everything floats where it was put.
+        assert ros.sim.simulation.spheres.position[2].tolist() == [3.7, 3.8, 3.75]
+
+
+def test_a_new_sphere_list_from_a_params_file_starts_from_the_schema_defaults():
+    params = {'sphere_names': ['buoy'], 'buoy.position': [1.0, 1.0, -1.0]}
+    with Harness(params) as ros:
+        spheres = ros.sim.simulation.spheres
+        assert spheres.names == ('buoy',)
+        assert spheres.mass.tolist() == [1.0] and spheres.radius.tolist() == [0.1]
+
+
+def test_the_depth_keeper_holds_its_sphere_within_5_cm_after_20_s():
+    target_depth = 1.0
+
+    def keeper(**kwargs):
+        return DepthKeeper(parameter_overrides=overrides(
+            {'sphere': 'ice', 'target_depth': target_depth}), **kwargs)
+    with Harness({'real_time_factor': 5.0}, extra_nodes=[keeper]) as ros:
+        assert ros.spin_until(lambda: ros.sim.simulation.time >= 20.0, timeout_s=30.0)
+        z = ros.sim.simulation.sphere_state('ice')[0][2]
+        assert abs(z - (-target_depth)) < 0.05
+        # The others are untouched by the keeper.
+        assert ros.sim.simulation.spheres.external_force[:, :2].tolist() == [[0, 0]] * 3
