@@ -26,6 +26,7 @@ from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
 from pool_sim.physics import InvalidInput, Scene, Simulation
+from pool_sim.physics.stability import stable_step_bound
 from pool_sim.ros.messages import scene_markers, SphereMessages, stamp_of
 from pool_sim.ros.parameters import (declare_scene, live_key, overrides_of,
                                      ROS_OWN_PARAMETERS, scene_from_overrides)
@@ -88,11 +89,21 @@ class PoolSimNode(Node):
                        if self.real_time_factor > 0 else 0.001)
         self.timer = self.create_timer(tick_period, self._on_tick,
                                        clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self._warn_if_unstable()
         self.get_logger().info(
             f'{len(names)} spheres ({", ".join(names)}); {scene["integrator"]} at '
             f'{scene["physics_rate_hz"]:g} Hz, publishing at {scene["publish_rate_hz"]:g} Hz '
             f'of simulated time, real_time_factor {self.real_time_factor:g}; effects: '
             f'{", ".join(scene["effects"]) or "none"}')
+
+    def _warn_if_unstable(self):
+        bound = stable_step_bound(self.scene)
+        if self.simulation.max_step > bound:
+            self.get_logger().warning(
+                f'{self.scene["integrator"]} is unstable at {self.scene["physics_rate_hz"]:g} Hz '
+                f'for this scene: its stiffest sphere needs a step under {bound * 1e3:.3g} ms '
+                f'({1.0 / bound if bound > 0 else math.inf:.4g} Hz or more); '
+                'linearly_implicit_euler is stable at any rate')
 
     # -- time --------------------------------------------------------------------------------
 

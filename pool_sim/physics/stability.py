@@ -1,0 +1,100 @@
+"""The largest stable step of each integrator for a scene, from its stiffest sphere.
+
+Near the waterline a sphere is a damped spring: z'' = -omega^2 z - lambda z', with
+omega^2 = (rho_w - rho_a)*|g|*pi*r^2 / m_eff (the waterline spring at its stiffest) and
+lambda = rho_w*C_d*pi*r^2*|v| / m_eff (quadratic drag linearised at a speed |v| it will
+reach). One step of an integrator maps (z, z') linearly; it is stable while that map's
+spectral radius stays <= 1. The map is found by running the integrator itself on the linear
+system, so the bound cannot drift from the implementation.
+
+linearly_implicit_euler takes both stiff parts implicitly and has no bound.
+"""
+import math
+
+import numpy as np
+
+from .integrators import INTEGRATORS
+
+UNCONDITIONALLY_STABLE = frozenset({'linearly_implicit_euler'})
+
+
+def sphere_stiffness(scene):
+    """(omega_sq (n,) 1/s^2, drag_rate (n,) 1/s) of the linearised spring and damper.
+
+    The reference speed is the fastest of: terminal speed in water, the speed of a fall from
+    the pool's top to the surface, and the initial speed.
+    """
+    names = scene.sphere_names
+    effects = set(scene['effects'])
+    mass = np.array([scene[f'{n}.mass'] for n in names])
+    radius = np.array([scene[f'{n}.radius'] for n in names])
+    drag_coefficient = np.array([scene[f'{n}.drag_coefficient'] for n in names])
+    initial_speed = np.array([np.linalg.norm(scene[f'{n}.velocity']) for n in names])
+    water, air = scene['water.density'], scene['air.density']
+    gravity = float(np.linalg.norm(scene['gravity']))
+    area, volume = math.pi * radius**2, 4.0 / 3.0 * math.pi * radius**3
+    inertia = mass + (0.5 * water * volume if 'added_mass' in effects else 0.0)
+    omega_sq = ((water - air) * gravity * area / inertia if 'buoyancy' in effects
+                else np.zeros_like(mass))
+    if 'drag' not in effects:
+        return omega_sq, np.zeros_like(mass)
+    net_weight = np.abs(mass - water * volume) * gravity
+    terminal = np.sqrt(2.0 * net_weight / np.maximum(water * drag_coefficient * area, 1e-300))
+    fall = math.sqrt(2.0 * gravity * max(scene['pool.max'][2] - scene['water.surface_z'], 0.0))
+    speed = np.maximum(np.maximum(terminal, fall), initial_speed)
+    return omega_sq, water * drag_coefficient * area * speed / inertia
+
+
+class _LinearSpring:
+    """Stands in for Dynamics: acceleration = -omega^2 * z - drag_rate * z' on the z row."""
+
+    def __init__(self, omega_sq, drag_rate):
+        self.omega_sq, self.drag_rate = omega_sq, drag_rate
+
+    def acceleration(self, spheres, position, velocity):
+        return -self.omega_sq * position - self.drag_rate * velocity
+
+
+def spectral_radius(integrator, omega_sq, drag_rate, dt):
+    """(n,) spectral radius of one step of `integrator` on each linearised sphere."""
+    count = len(omega_sq)
+    step = INTEGRATORS[integrator]
+    spring = _LinearSpring(omega_sq, drag_rate)
+    columns = []
+    for start in ((1.0, 0.0), (0.0, 1.0)):
+        position = np.full((1, count), start[0])
+        velocity = np.full((1, count), start[1])
+        new_position, new_velocity = step(spring, None, position, velocity, dt)
+        columns.append((new_position[0], new_velocity[0]))
+    matrices = np.empty((count, 2, 2))
+    for j, (new_position, new_velocity) in enumerate(columns):
+        matrices[:, 0, j], matrices[:, 1, j] = new_position, new_velocity
+    return np.max(np.abs(np.linalg.eigvals(matrices)), axis=1)
+
+
+def stable_step_bound(scene, integrator=None):
+    """Largest stable step (s) for the scene's stiffest sphere; inf when there is no bound.
+
+    0.0 means no step is stable (explicit Euler on an undamped spring)."""
+    integrator = integrator or scene['integrator']
+    if integrator in UNCONDITIONALLY_STABLE or not scene.sphere_names:
+        return math.inf
+    omega_sq, drag_rate = sphere_stiffness(scene)
+    if not (omega_sq.any() or drag_rate.any()):
+        return math.inf
+
+    def stable(dt):
+        return np.all(spectral_radius(integrator, omega_sq, drag_rate, dt) <= 1.0 + 1e-12)
+    # Scan up from tiny steps to the first unstable one, then bisect.
+    candidates = np.logspace(-7, 2, 181)
+    unstable = [dt for dt in candidates if not stable(dt)]
+    if not unstable:
+        return math.inf
+    high = unstable[0]
+    low = candidates[np.searchsorted(candidates, high) - 1] if high > candidates[0] else 0.0
+    if low == 0.0 or not stable(low):
+        return 0.0
+    for _ in range(60):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if stable(middle) else (low, middle)
+    return low
