@@ -41,18 +41,25 @@ def lift_force(env, spheres, position, velocity, water_fraction, force):
         force += direction * scale
 
 
+def drag_factors(env, spheres, water_fraction):
+    """1/2*rho*C_d*A*fraction per medium, kg/m: drag = -factor * |v_rel| * v_rel.
+
+    (factor_air, factor_water), each (n,).
+    """
+    shape = 0.5 * spheres.drag_coefficient * spheres.cross_section
+    return (shape * env.air.density * (1.0 - water_fraction),
+            shape * env.water.density * water_fraction)
+
+
 def drag_gains(env, spheres, velocity, water_fraction):
     """Quadratic drag written as linear gains: F = -gain_air*(v - wind) - gain_water*(v - current).
 
-    gain = 1/2*rho*C_d*A*|v_rel| * fraction, kg/s, one (n,) array per medium. The gain form
-    lets the default integrator take drag implicitly.
+    gain = factor * |v_rel|, kg/s, one (n,) array per medium.
     """
     gains = []
-    for medium, fraction in ((env.air, 1.0 - water_fraction), (env.water, water_fraction)):
+    for medium, factor in zip((env.air, env.water), drag_factors(env, spheres, water_fraction)):
         relative = velocity - medium.flow_velocity[:, None]
-        speed = np.sqrt(np.einsum('ij,ij->j', relative, relative))
-        gains.append(0.5 * medium.density * spheres.drag_coefficient * spheres.cross_section
-                     * fraction * speed)
+        gains.append(factor * np.sqrt(np.einsum('ij,ij->j', relative, relative)))
     return gains[0], gains[1]
 
 
@@ -109,6 +116,12 @@ class Dynamics:
         if not self.has_drag:
             return None
         return drag_gains(self.env, spheres, velocity, water_fraction)
+
+    def drag_factors(self, spheres, water_fraction):
+        """(factor_air, factor_water) kg/m, or None when drag is not listed."""
+        if not self.has_drag:
+            return None
+        return drag_factors(self.env, spheres, water_fraction)
 
     def drag_force(self, gains, velocity):
         gain_air, gain_water = gains

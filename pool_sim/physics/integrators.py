@@ -42,30 +42,60 @@ def rk4(dynamics, spheres, position, velocity, dt):
 def linearly_implicit_euler(dynamics, spheres, position, velocity, dt):
     """The default: stable at any step for stiff drag, light spheres and a stiff float.
 
-    Symplectic Euler in which the two stiff parts are taken at the end of the step:
-    quadratic drag as gain(v_now) * (v_new - flow), and the buoyancy spring at the waterline
-    as -k * (z_new - z).  Solving for v_new is a division per sphere:
-        (m + dt*gain + dt^2*k_z) v_new = m*v + dt*(F + gain*flow)
-    It never reverses a relative velocity by drag alone, damps the float like backward Euler,
-    and its fixed points are exact: terminal velocity and floating draft have no step error.
+    The two stiff parts are taken implicitly and everything else explicitly:
+    - quadratic drag as gain * (v_new - flow), the gain taken at the larger of the current
+      relative speed and the speed the step will end with (the closed-form root of
+      m*s + dt*c*s^2 = |m*v_rel + dt*F|), so a sphere starting from rest is damped too;
+    - the buoyancy spring k at the waterline with a theta-method whose weight w blends from
+      the trapezoidal rule (w = 1/2: no damping, second order) when the spring is resolved
+      to backward Euler (w = 1: L-stable) when it is not: w = 1/2 + h^2 / (2*(4 + h^2)),
+      h = omega*dt, omega^2 = k/m. Below h = 0.3 it damps the float by < 0.04*omega*h^2
+      per second; at h = 6.7 it cuts the stiff mode to 0.16 per step.
+    Positions advance with the mean velocity (weight w on z where the spring acts).
+    Solving for v_new is a division per sphere:
+        (m + dt*gain + w^2*dt^2*k) v_new = m*v + dt*(F + gain*flow) - w*(1-w)*dt^2*k*v
+    Fixed points are exact: terminal velocity and floating draft carry no step error.
+    First order with drag, second order for gravity and the float.
     """
     env = dynamics.env
     water_fraction = dynamics.water_fraction(spheres, position)
     inertia = dynamics.inertia(spheres, water_fraction)
-    momentum = inertia * velocity + dt * dynamics.explicit_force(
-        spheres, position, velocity, water_fraction)
+    force = dynamics.explicit_force(spheres, position, velocity, water_fraction)
+    momentum = inertia * velocity + dt * force
     denominator = np.broadcast_to(inertia, (3, spheres.count)).copy()
-    gains = dynamics.drag_gains(spheres, velocity, water_fraction)
-    if gains is not None:
-        gain_air, gain_water = gains
-        momentum += dt * (gain_air * env.air.flow_velocity[:, None]
-                          + gain_water * env.water.flow_velocity[:, None])
-        denominator += dt * (gain_air + gain_water)
+    factors = dynamics.drag_factors(spheres, water_fraction)
+    if factors is not None:
+        factor_air, factor_water = factors
+        flow_air = env.air.flow_velocity[:, None]
+        flow_water = env.water.flow_velocity[:, None]
+        total = factor_air + factor_water
+        mean_flow = (factor_air * flow_air + factor_water * flow_water) / np.where(
+            total > 0.0, total, 1.0)
+        relative_momentum = inertia * (velocity - mean_flow) + dt * force
+        pushed = np.sqrt(np.einsum('ij,ij->j', relative_momentum, relative_momentum))
+        end_speed = 2.0 * pushed / (inertia + np.sqrt(inertia * inertia
+                                                      + 4.0 * dt * total * pushed))
+        gains = []
+        for factor, flow in ((factor_air, flow_air), (factor_water, flow_water)):
+            relative = velocity - flow
+            speed = np.sqrt(np.einsum('ij,ij->j', relative, relative))
+            gain = factor * np.maximum(speed, end_speed)
+            momentum += dt * gain * flow
+            denominator += dt * gain
+            gains.append(gain)
     stiffness = dynamics.vertical_stiffness(spheres, position)
+    weight = 0.5
     if stiffness is not None:
-        denominator[2] += dt * dt * stiffness
+        spring = dt * dt * stiffness  # (omega*dt)^2 * m
+        h_squared = spring / inertia
+        weight = 0.5 + 0.5 * h_squared / (4.0 + h_squared)
+        momentum[2] -= weight * (1.0 - weight) * spring * velocity[2]
+        denominator[2] += weight * weight * spring
     new_velocity = momentum / denominator
-    return position + dt * new_velocity, new_velocity
+    new_position = position + 0.5 * dt * (velocity + new_velocity)
+    if stiffness is not None:
+        new_position[2] += (weight - 0.5) * dt * (new_velocity[2] - velocity[2])
+    return new_position, new_velocity
 
 
 INTEGRATORS = {
