@@ -52,3 +52,16 @@ def test_a_sliding_sphere_stops_and_stays_stopped():
     stop_distance = 2.0**2 / (2 * MU_K * G)
     assert sim.spheres.velocity[0, 0] == 0.0
     assert sim.spheres.position[0, 0] == pytest.approx(stop_distance, rel=0.01)
+
+
+def test_friction_in_a_floor_corner_never_pushes_a_sphere_through_the_wall():
+    # Found by hypothesis: the slide correction pointed back at the wall just bounced off.
+    # The first step crosses both the wall (y) and the floor (z) of the corner.
+    scene = one_sphere(0.5, mass=1.0, position=(0.0, -3.495, -3.49), velocity=(0.0, -2.0, -2.0),
+                       effects=['gravity', 'contact', 'friction'], contact__rolling_friction=0.3,
+                       contact__static_friction=0.3, contact__kinetic_friction=0.0,
+                       water__surface_z=-10.0, physics_rate_hz=100.0)
+    sim = Simulation(scene)
+    for _ in range(100):
+        sim.step()
+        assert sim.spheres.position[1, 0] >= -3.5 and sim.spheres.position[2, 0] >= -3.5

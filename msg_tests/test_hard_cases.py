@@ -60,3 +60,36 @@ def test_heavy_sphere_landing_on_the_floor_settles(rate_hz):
     heights = run_checked(sim, 20.0)
     assert heights[-1] == -3.0
     assert np.all(sim.spheres.velocity == 0.0)
+
+
+def test_balloon_light_sphere_under_water_rises_without_blowing_up():
+    # 1 kg/m^3: lighter than air too, so it ends against the ceiling, at rest.
+    sim = Simulation(one_sphere(0.1, 1.0, position=(0, 0, -3.0), physics_rate_hz=10.0))
+    run_checked(sim, 20.0)
+    assert sim.spheres.position[2, 0] == pytest.approx(4.0 - 0.1)
+    assert np.all(np.abs(sim.spheres.velocity) < 1e-9)
+
+
+@pytest.mark.parametrize('rate_hz', [200.0, 10.0])
+def test_neutrally_buoyant_sphere_straddling_the_surface_sinks_under_and_coasts(rate_hz):
+    """Half out of the water it weighs more than it displaces; once under it is neutral and
+    coasts against quadratic drag alone: m*dv/dt = -c*v^2, so v -> m/(c*t), never zero."""
+    radius, mass = 0.1, 1000.0 * 4.0 / 3.0 * np.pi * 0.1**3
+    sim = Simulation(one_sphere(radius, mass=mass, position=(0, 0, 0.0),
+                                physics_rate_hz=rate_hz))
+    run_checked(sim, 30.0)
+    assert sim.spheres.position[2, 0] < -radius  # fully under
+    drag_factor = 0.5 * 1000.0 * 0.47 * np.pi * radius**2
+    assert -sim.spheres.velocity[2, 0] == pytest.approx(mass / (drag_factor * 30.0), rel=0.2)
+
+
+@pytest.mark.parametrize('rate_hz', [200.0, 10.0])
+def test_radius_changed_from_1_cm_to_1_m_while_submerged(rate_hz):
+    sim = Simulation(one_sphere(0.01, 7850.0, position=(0, 0, -2.0), physics_rate_hz=rate_hz))
+    sim.advance(0.5)
+    sim.set_radius('ball', 1.0)  # same 33 g in 4.2 m^3: lighter than air now
+    heights = run_checked(sim, 30.0)
+    assert heights.max() <= 4.0 - 1.0 + 1e-12
+    # Shot up by a buoyancy 1.3 million times its weight, it ends against the ceiling.
+    assert sim.spheres.position[2, 0] == pytest.approx(3.0)
+    assert abs(sim.spheres.velocity[2, 0]) < 1e-6

@@ -47,6 +47,9 @@ def resolve_contacts(pool, params, radius, old_position, old_velocity,
     if friction and below[2].any():
         floor_impulse_per_mass = np.where(below[2], bounced[2] - normal_speed[2], 0.0)
         _floor_friction(params, floor_impulse_per_mass, old_position, position, velocity, dt)
+        # Friction's position correction must not undo a wall's: in a corner it points back
+        # at the wall the sphere just bounced off.
+        np.clip(position[:2], low[:2], high[:2], out=position[:2])
 
 
 def _floor_friction(params, impulse_per_mass, old_position, position, velocity, dt):
