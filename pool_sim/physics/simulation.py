@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from . import fused
 from .contact import resolve_contacts
 from .effects import Dynamics
 from .integrators import INTEGRATORS
@@ -16,13 +17,16 @@ from .spheres import InvalidInput
 
 class Simulation:
     """scene: a Scene.  submerged_volume: 'cap' (exact) or 'linear' (the seed's, to compare).
+    initial_spheres: Spheres to start from instead of the scene's (for scenes of many
+    thousands of spheres, built as arrays rather than as per-sphere keys); reset returns here.
 
     time: simulated seconds since the start or the last reset.
     max_step: the configured step, s (1 / physics_rate_hz); no step is ever longer.
     """
 
-    def __init__(self, scene, submerged_volume='cap'):
+    def __init__(self, scene, submerged_volume='cap', initial_spheres=None, backend='auto'):
         self.scene = scene
+        self.initial_spheres = initial_spheres
         self.environment = scene.environment()
         self.contact_parameters = scene.contact_parameters()
         self.dynamics = Dynamics(self.environment, scene['effects'], submerged_volume)
@@ -30,16 +34,31 @@ class Simulation:
         self.max_step = 1.0 / scene['physics_rate_hz']
         self.has_contact = 'contact' in scene['effects']
         self.has_friction = 'friction' in scene['effects']
+        if backend not in ('auto', 'numpy', 'fused'):
+            raise InvalidInput(f"backend: one of 'auto', 'numpy', 'fused', got {backend!r}")
+        fusable = fused.supports(scene, submerged_volume)
+        if backend == 'fused' and not fusable:
+            raise InvalidInput('backend: the fused kernel needs numba, the default integrator, '
+                               f'the exact cap and effects within {sorted(fused.FUSED_EFFECTS)}')
+        # 'auto' takes the compiled loop where it computes the same thing, numpy elsewhere.
+        self.backend = 'fused' if fusable and backend != 'numpy' else 'numpy'
+        self.effect_flags = tuple(name in scene['effects'] for name in (
+            'gravity', 'buoyancy', 'drag', 'contact', 'friction'))
         self.reset()
 
     def reset(self):
         """Back to the scene's initial state; time restarts at 0."""
-        self.spheres = self.scene.build_spheres()
+        self.spheres = (self.scene.build_spheres() if self.initial_spheres is None
+                        else self.initial_spheres.copy())
         self.time = 0.0
 
     def step(self, dt=None):
         """One step of dt seconds (default: max_step)."""
         dt = self.max_step if dt is None else dt
+        if self.backend == 'fused':
+            fused.step(self, dt)
+            self.time += dt
+            return
         spheres = self.spheres
         old_position, old_velocity = spheres.position, spheres.velocity
         position, velocity = self.integrator(
