@@ -14,8 +14,14 @@ import numpy as np
 
 try:
     import numba
+    _prange = numba.prange  # a plain range except in the parallel build of _smooth
 except ImportError:  # optional: the numpy pipeline does everything without it
     numba = None
+    _prange = range
+
+# From this many spheres on, the smooth pass runs on every core: below it, starting the
+# threads costs more than they save.
+PARALLEL_FROM_SPHERES = 20_000
 
 FUSED_EFFECTS = frozenset({'gravity', 'buoyancy', 'drag', 'contact', 'friction'})
 FUSED_INTEGRATOR = 'linearly_implicit_euler'
@@ -27,138 +33,154 @@ def supports(scene, submerged_volume):
             and submerged_volume == 'cap' and set(scene['effects']) <= FUSED_EFFECTS)
 
 
-def _step(position, velocity, mass, radius, volume, cross_section, drag_coefficient,
-          external_force, gravity, air_density, wind, water_density, current, surface_z,
-          pool_min, pool_max, contact, dt, has_gravity, has_buoyancy, has_drag, has_contact,
-          has_friction):
-    """One step of every sphere, in place. Arrays as in Spheres; contact =
-    (restitution, static, kinetic, rolling friction); has_*: the scene's effects."""
-    restitution, static_friction, kinetic_friction, rolling_friction = contact
+def _smooth(position, velocity, mass, radius, volume, cross_section, drag_coefficient,
+            external_force, gravity, air_density, wind, water_density, current, surface_z, dt,
+            has_gravity, has_buoyancy, has_drag, old_position, old_velocity):
+    """The smooth part of linearly_implicit_euler, in place; old_* receive the start state.
+
+    Branch-free per sphere (selects, not ifs) and written with scalars, so the compiler can
+    run several spheres per SIMD instruction: the same arithmetic as the numpy pipeline.
+    """
+    gx, gy, gz = gravity[0], gravity[1], gravity[2]
+    wx, wy, wz = wind[0], wind[1], wind[2]
+    cx, cy, cz = current[0], current[1], current[2]
     density_step = water_density - air_density
-    needs_fraction = has_buoyancy or has_drag
-    # Scratch for one sphere, allocated once: an allocation per sphere would cost more than
-    # the physics.
-    new_x, new_v, old_x, old_v = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    force, momentum, denominator = np.empty(3), np.empty(3), np.empty(3)
-    for i in range(position.shape[1]):
+    for i in _prange(position.shape[1]):
+        x, y, z = position[0, i], position[1, i], position[2, i]
+        vx, vy, vz = velocity[0, i], velocity[1, i], velocity[2, i]
+        old_position[0, i], old_position[1, i], old_position[2, i] = x, y, z
+        old_velocity[0, i], old_velocity[1, i], old_velocity[2, i] = vx, vy, vz
         m, r = mass[i], radius[i]
-        for a in range(3):
-            old_x[a] = position[a, i]
-            old_v[a] = velocity[a, i]
-        z = old_x[2]
-        # Wholly in one medium (most spheres, most steps): the cap is exactly 0 or 1.
-        crossing = z - r < surface_z < z + r
-        fraction = 0.0
-        if needs_fraction:
-            if crossing:
-                h = (surface_z - (z - r)) / r
-                fraction = 0.25 * h * h * (3.0 - h)
-            elif z + r <= surface_z:
-                fraction = 1.0
-        displaced = volume[i] * (air_density + density_step * fraction)
-        for a in range(3):
-            f = external_force[a, i]
-            if has_gravity:
-                f += gravity[a] * m
-            if has_buoyancy:
-                f -= gravity[a] * displaced
-            force[a] = f
-        for a in range(3):
-            momentum[a] = m * old_v[a] + dt * force[a]
-            denominator[a] = m
+        depth = surface_z - (z - r)
+        depth = 0.0 if depth < 0.0 else depth
+        depth = 2.0 * r if depth > 2.0 * r else depth
+        h = depth / r
+        fraction = 0.25 * h * h * (3.0 - h)
+        fx, fy, fz = external_force[0, i], external_force[1, i], external_force[2, i]
+        if has_gravity:
+            fx += gx * m
+            fy += gy * m
+            fz += gz * m
+        if has_buoyancy:
+            displaced = volume[i] * (air_density + density_step * fraction)
+            fx -= gx * displaced
+            fy -= gy * displaced
+            fz -= gz * displaced
+        px, py, pz = m * vx + dt * fx, m * vy + dt * fy, m * vz + dt * fz
+        horizontal = m
+        vertical = m
         if has_drag:
             shape = 0.5 * drag_coefficient[i] * cross_section[i]
             factor_air = shape * air_density * (1.0 - fraction)
             factor_water = shape * water_density * fraction
             total = factor_air + factor_water
-            inverse_total = 1.0 / total if total > 0.0 else 1.0
-            pushed_sq = 0.0
-            speed_air_sq = 0.0
-            speed_water_sq = 0.0
-            for a in range(3):
-                mean_flow = (factor_air * wind[a] + factor_water * current[a]) * inverse_total
-                relative_momentum = m * (old_v[a] - mean_flow) + dt * force[a]
-                pushed_sq += relative_momentum * relative_momentum
-                speed_air_sq += (old_v[a] - wind[a]) ** 2
-                speed_water_sq += (old_v[a] - current[a]) ** 2
-            pushed = math.sqrt(pushed_sq)
+            divisor = total if total > 0.0 else 1.0
+            mx = (factor_air * wx + factor_water * cx) / divisor
+            my = (factor_air * wy + factor_water * cy) / divisor
+            mz = (factor_air * wz + factor_water * cz) / divisor
+            rx, ry, rz = m * (vx - mx) + dt * fx, m * (vy - my) + dt * fy, m * (vz - mz) + dt * fz
+            pushed = math.sqrt(rx * rx + ry * ry + rz * rz)
             end_speed = 2.0 * pushed / (m + math.sqrt(m * m + 4.0 * dt * total * pushed))
-            # A medium the sphere is not in has factor 0: its speed is not needed.
-            gain_air = (factor_air * max(math.sqrt(speed_air_sq), end_speed)
-                        if factor_air > 0.0 else 0.0)
-            gain_water = (factor_water * max(math.sqrt(speed_water_sq), end_speed)
-                          if factor_water > 0.0 else 0.0)
-            for a in range(3):
-                momentum[a] += dt * gain_air * wind[a]
-                momentum[a] += dt * gain_water * current[a]
-                denominator[a] += dt * gain_air
-                denominator[a] += dt * gain_water
+            speed_air = math.sqrt((vx - wx) ** 2 + (vy - wy) ** 2 + (vz - wz) ** 2)
+            speed_water = math.sqrt((vx - cx) ** 2 + (vy - cy) ** 2 + (vz - cz) ** 2)
+            gain_air = factor_air * (speed_air if speed_air > end_speed else end_speed)
+            gain_water = factor_water * (speed_water if speed_water > end_speed else end_speed)
+            px += dt * gain_air * wx
+            py += dt * gain_air * wy
+            pz += dt * gain_air * wz
+            px += dt * gain_water * cx
+            py += dt * gain_water * cy
+            pz += dt * gain_water * cz
+            horizontal += dt * gain_air
+            horizontal += dt * gain_water
+            vertical = horizontal
         weight = 0.5
-        if has_buoyancy and crossing:  # the waterline spring exists only while crossing
+        if has_buoyancy:
             offset = z - surface_z
-            waterline = math.pi * max(r * r - offset * offset, 0.0)
-            stiffness = max(gravity[2] * density_step * -waterline, 0.0)
+            reach = r * r - offset * offset
+            waterline = math.pi * (reach if reach > 0.0 else 0.0)
+            stiffness = gz * density_step * -waterline
+            stiffness = stiffness if stiffness > 0.0 else 0.0
             spring = dt * dt * stiffness
             h_squared = spring / m
             weight = 0.5 + 0.5 * h_squared / (4.0 + h_squared)
-            momentum[2] -= weight * (1.0 - weight) * spring * old_v[2]
-            denominator[2] += weight * weight * spring
-        # x and y share a denominator: one division for both.
-        inverse_horizontal = 1.0 / denominator[0]
-        new_v[0] = momentum[0] * inverse_horizontal
-        new_v[1] = momentum[1] * inverse_horizontal
-        new_v[2] = momentum[2] / denominator[2]
+            pz -= weight * (1.0 - weight) * spring * vz
+            vertical += weight * weight * spring
+        nvx, nvy, nvz = px / horizontal, py / horizontal, pz / vertical
+        velocity[0, i], velocity[1, i], velocity[2, i] = nvx, nvy, nvz
+        position[0, i] = x + 0.5 * dt * (vx + nvx)
+        position[1, i] = y + 0.5 * dt * (vy + nvy)
+        position[2, i] = z + 0.5 * dt * (vz + nvz) + (weight - 0.5) * dt * (nvz - vz)
+
+
+def _contact(position, velocity, radius, old_position, old_velocity, pool_min, pool_max,
+             contact, dt, has_friction):
+    """Floor, walls, ceiling and floor friction, in place: as contact.resolve_contacts.
+
+    Almost every sphere is inside, so this pass is six comparisons a sphere; the branches
+    are rarely taken and do not hold up the smooth pass.
+    """
+    restitution, static_friction, kinetic_friction, rolling_friction = contact
+    for i in range(position.shape[1]):
+        r = radius[i]
+        floor_impulse = 0.0
         for a in range(3):
-            new_x[a] = old_x[a] + 0.5 * dt * (old_v[a] + new_v[a])
-        if weight != 0.5:
-            new_x[2] += (weight - 0.5) * dt * (new_v[2] - old_v[2])
-        if has_contact:
-            floor_impulse = 0.0
-            for a in range(3):
-                low = pool_min[a] + r
-                high = pool_max[a] - r
-                below = new_x[a] < low
-                if below or new_x[a] > high:
-                    inward = 1.0 if below else -1.0
-                    normal_speed = inward * new_v[a]
-                    if normal_speed >= 0.0:
-                        bounced = normal_speed
-                    else:
-                        bounced = restitution * max(-inward * old_v[a], 0.0)
-                    new_x[a] = low if below else high
-                    new_v[a] = inward * bounced
-                    if a == 2 and below:
-                        floor_impulse = bounced - normal_speed
-            if has_friction and floor_impulse > 0.0:
-                tx, ty = new_v[0], new_v[1]
-                tangential_speed = math.hypot(tx, ty)
-                if tangential_speed <= static_friction * floor_impulse:
-                    new_x[0], new_x[1] = old_x[0], old_x[1]
-                    new_v[0], new_v[1] = 0.0, 0.0
+            low = pool_min[a] + r
+            high = pool_max[a] - r
+            p = position[a, i]
+            below = p < low
+            if below or p > high:
+                inward = 1.0 if below else -1.0
+                normal_speed = inward * velocity[a, i]
+                if normal_speed >= 0.0:
+                    bounced = normal_speed
                 else:
-                    slowdown = min(tangential_speed,
-                                   (kinetic_friction + rolling_friction) * floor_impulse)
-                    scale = 1.0 - slowdown / tangential_speed if tangential_speed > 0.0 else 1.0
-                    new_v[0], new_v[1] = tx * scale, ty * scale
-                    new_x[0] += dt * (new_v[0] - tx)
-                    new_x[1] += dt * (new_v[1] - ty)
-                for a in range(2):
-                    new_x[a] = min(max(new_x[a], pool_min[a] + r), pool_max[a] - r)
-        for a in range(3):
-            position[a, i] = new_x[a]
-            velocity[a, i] = new_v[a]
+                    bounced = restitution * max(-inward * old_velocity[a, i], 0.0)
+                position[a, i] = low if below else high
+                velocity[a, i] = inward * bounced
+                if a == 2 and below:
+                    floor_impulse = bounced - normal_speed
+        if has_friction and floor_impulse > 0.0:
+            tx, ty = velocity[0, i], velocity[1, i]
+            tangential_speed = math.hypot(tx, ty)
+            if tangential_speed <= static_friction * floor_impulse:
+                position[0, i], position[1, i] = old_position[0, i], old_position[1, i]
+                velocity[0, i], velocity[1, i] = 0.0, 0.0
+            else:
+                slowdown = min(tangential_speed,
+                               (kinetic_friction + rolling_friction) * floor_impulse)
+                scale = 1.0 - slowdown / tangential_speed if tangential_speed > 0.0 else 1.0
+                velocity[0, i], velocity[1, i] = tx * scale, ty * scale
+                position[0, i] += dt * (velocity[0, i] - tx)
+                position[1, i] += dt * (velocity[1, i] - ty)
+            for a in range(2):
+                position[a, i] = min(max(position[a, i], pool_min[a] + r), pool_max[a] - r)
 
 
-fused_step = numba.njit(cache=True, nogil=True)(_step) if numba is not None else None
+if numba is not None:
+    _smooth_kernel = numba.njit(cache=True, nogil=True, error_model='numpy')(_smooth)
+    _smooth_parallel_kernel = numba.njit(cache=True, nogil=True, error_model='numpy',
+                                         parallel=True)(_smooth)
+    _contact_kernel = numba.njit(cache=True, nogil=True)(_contact)
 
 
 def step(simulation, dt):
     """Advance `simulation` (a Simulation the kernel supports) by dt in place."""
-    env, spheres, contact = simulation.environment, simulation.spheres, simulation.contact_parameters
-    effects = simulation.effect_flags
-    fused_step(spheres.position, spheres.velocity, spheres.mass, spheres.radius, spheres.volume,
-               spheres.cross_section, spheres.drag_coefficient, spheres.external_force,
-               env.gravity, env.air.density, env.air.flow_velocity, env.water.density,
-               env.water.flow_velocity, env.surface_z, env.pool.corner_min, env.pool.corner_max,
-               (contact.restitution, contact.static_friction, contact.kinetic_friction,
-                contact.rolling_friction), dt, *effects)
+    env, spheres = simulation.environment, simulation.spheres
+    has_gravity, has_buoyancy, has_drag, has_contact, has_friction = simulation.effect_flags
+    scratch = simulation.fused_scratch
+    if scratch is None or scratch[0].shape != spheres.position.shape:
+        scratch = simulation.fused_scratch = (np.empty_like(spheres.position),
+                                              np.empty_like(spheres.velocity))
+    old_position, old_velocity = scratch
+    smooth = (_smooth_parallel_kernel if spheres.count >= PARALLEL_FROM_SPHERES
+              else _smooth_kernel)
+    smooth(spheres.position, spheres.velocity, spheres.mass, spheres.radius, spheres.volume,
+           spheres.cross_section, spheres.drag_coefficient, spheres.external_force,
+           env.gravity, env.air.density, env.air.flow_velocity, env.water.density,
+           env.water.flow_velocity, env.surface_z, dt, has_gravity, has_buoyancy, has_drag,
+           old_position, old_velocity)
+    if has_contact:
+        _contact_kernel(spheres.position, spheres.velocity, spheres.radius, old_position,
+                        old_velocity, env.pool.corner_min, env.pool.corner_max,
+                        simulation.contact_tuple, dt, has_friction)

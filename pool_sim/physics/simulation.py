@@ -42,6 +42,10 @@ class Simulation:
                                f'the exact cap and effects within {sorted(fused.FUSED_EFFECTS)}')
         # 'auto' takes the compiled loop where it computes the same thing, numpy elsewhere.
         self.backend = 'fused' if fusable and backend != 'numpy' else 'numpy'
+        self.fused_scratch = None  # (3, n) start-of-step state, kept between steps
+        params = self.contact_parameters
+        self.contact_tuple = (params.restitution, params.static_friction,
+                              params.kinetic_friction, params.rolling_friction)
         self.effect_flags = tuple(name in scene['effects'] for name in (
             'gravity', 'buoyancy', 'drag', 'contact', 'friction'))
         self.reset()
