@@ -1,24 +1,31 @@
-"""The node started as a user starts it: achieved publish rate, real-time factor and CPU.
+"""The node started as a user starts it: achieved real-time factor, publish rate and CPU.
 
-    .venv/bin/python -m benchmarks.node_rate [--seconds 10]
+    .venv/bin/python -m benchmarks.node_rate [--seconds 10] [--spheres 3,100,1000,5000]
 
-For each real_time_factor asked for, one node process runs the default pool; a client in
-this process counts ~/poses and reads their stamps. Achieved RTF = simulated seconds (from
-the stamps) / wall seconds; publish rate is per wall second and per simulated second.
+Table 1: the default pool at real_time_factor 1, 10 and 0. Table 2: N spheres from a
+params file (physics 200 Hz, publishing 30 Hz, real_time_factor 1), with where the node's
+wall time went (its own counters, logged when it stops). One node process per row; a client
+in this process counts ~/poses and reads their stamps. Achieved RTF = simulated seconds
+(from the stamps) / wall seconds.
 """
 import argparse
 import os
+from pathlib import Path
+import re
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 
 from geometry_msgs.msg import PoseArray
+import numpy as np
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 
 CLOCK_TICKS = os.sysconf('SC_CLK_TCK')
+WARM_UP_S = 2.0
 
 
 def cpu_seconds(pid):
@@ -27,12 +34,29 @@ def cpu_seconds(pid):
     return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS
 
 
-def measure(real_time_factor, seconds):
+def spheres_params_file(count, path):
+    """A params file with `count` spheres scattered through the pool's air and water."""
+    rng = np.random.default_rng(count)
+    lines = ['/**/pool_sim:', '  ros__parameters:',
+             f'    sphere_names: [{", ".join(f"s{i}" for i in range(count))}]']
+    for i in range(count):
+        radius = float(rng.uniform(0.02, 0.1))
+        mass = float(rng.uniform(100.0, 3000.0) * 4.0 / 3.0 * np.pi * radius**3)
+        x, y, z = (float(v) for v in rng.uniform(-3.5, 3.5, 3))
+        lines.append(f'    s{i}: {{mass: {mass:.6f}, radius: {radius:.4f}, '
+                     f'position: [{x:.3f}, {y:.3f}, {z:.3f}]}}')
+    path.write_text('\n'.join(lines) + '\n')
+    return path
+
+
+def measure(real_time_factor, seconds, params_file=None):
     namespace = f'/bench{os.getpid()}_{str(real_time_factor).replace(".", "_")}'
+    extra = ['--params-file', str(params_file)] if params_file else []
+    launched = time.monotonic()
     node = subprocess.Popen(
         [sys.executable, '-m', 'pool_sim.ros.simulator_node', '--ros-args',
-         '-p', f'real_time_factor:={real_time_factor}', '-r', f'__ns:={namespace}'],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+         '-p', f'real_time_factor:={real_time_factor}', '-r', f'__ns:={namespace}', *extra],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     context = Context()
     rclpy.init(context=context)
     try:
@@ -44,7 +68,11 @@ def measure(real_time_factor, seconds):
             PoseArray, f'{namespace}/pool_sim/poses',
             lambda m: stamps.append((time.monotonic(), m.header.stamp.sec
                                      + 1e-9 * m.header.stamp.nanosec)), 100)
-        while not stamps:  # discovery, then start measuring
+        while not stamps:  # start-up and discovery
+            executor.spin_once(timeout_sec=0.05)
+        startup = time.monotonic() - launched
+        warm_up_until = time.monotonic() + WARM_UP_S  # first steps load the compiled kernel
+        while time.monotonic() < warm_up_until:
             executor.spin_once(timeout_sec=0.05)
         start_wall, start_cpu, start_count = time.monotonic(), cpu_seconds(node.pid), len(stamps)
         start_stamp = stamps[-1][1]
@@ -59,21 +87,39 @@ def measure(real_time_factor, seconds):
     finally:
         rclpy.shutdown(context=context)
         node.send_signal(signal.SIGINT)
-        node.wait(timeout=20)
-    return simulated / wall, received / wall, received / simulated, 100.0 * cpu / wall
+        _, log = node.communicate(timeout=60)
+    reports = re.findall(r'wall time in (.*)$', log, re.MULTILINE)
+    report = reports[-1] if reports else 'n/a (ran under 5 s)'
+    return (simulated / wall, received / wall, received / simulated, 100.0 * cpu / wall,
+            startup, report)
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--seconds', type=float, default=10.0)
-    seconds = parser.parse_args().seconds
-    print(f'default pool (3 spheres, 200 Hz physics, 30 Hz publishing), {seconds:g} s each')
-    print('| asked RTF | achieved RTF | poses / wall s | poses / sim s | node CPU % |')
-    print('|----------:|-------------:|---------------:|--------------:|-----------:|')
-    for real_time_factor in (1.0, 10.0, 0.0):
-        rtf, per_wall, per_sim, cpu = measure(real_time_factor, seconds)
-        print(f'| {real_time_factor:9g} | {rtf:12.3f} | {per_wall:14.1f} | {per_sim:13.2f} '
-              f'| {cpu:10.0f} |')
+    parser.add_argument('--spheres', default='3,100,1000,5000')
+    parser.add_argument('--skip-default', action='store_true')
+    args = parser.parse_args()
+    seconds = args.seconds
+    if not args.skip_default:
+        print(f'default pool (3 spheres, 200 Hz physics, 30 Hz publishing), {seconds:g} s each')
+        print('| asked RTF | achieved RTF | poses / wall s | poses / sim s | node CPU % |')
+        print('|----------:|-------------:|---------------:|--------------:|-----------:|')
+        for real_time_factor in (1.0, 10.0, 0.0):
+            rtf, per_wall, per_sim, cpu, _, _ = measure(real_time_factor, seconds)
+            print(f'| {real_time_factor:9g} | {rtf:12.3f} | {per_wall:14.1f} | '
+                  f'{per_sim:13.2f} | {cpu:10.0f} |')
+        print()
+    print(f'N spheres, 200 Hz physics, 30 Hz publishing, real_time_factor 1, {seconds:g} s each')
+    print('| spheres | start-up s | achieved RTF | poses / wall s | node CPU % | '
+          'node wall time in |')
+    print('|---:|---:|---:|---:|---:|---|')
+    with tempfile.TemporaryDirectory() as folder:
+        for count in (int(n) for n in args.spheres.split(',')):
+            params = spheres_params_file(count, Path(folder) / f'spheres{count}.yaml')
+            rtf, per_wall, _, cpu, startup, report = measure(1.0, seconds, params)
+            print(f'| {count:,} | {startup:.1f} | {rtf:.3f} | {per_wall:.1f} | {cpu:.0f} | '
+                  f'{report} |', flush=True)
 
 
 if __name__ == '__main__':

@@ -4,7 +4,8 @@
 
 Writes scaling.csv, scaling.md and scaling.png. All figures come from one run on one
 machine: ns per sphere-step (median of repeats) for
-  - pool_sim's default step (fused kernel, one thread and all threads) and its numpy path;
+  - pool_sim's default step (fused kernel, one thread, as the node runs it) and its numpy
+    path;
   - the price of each effect: gravity only, gravity + drag (fused kernel);
   - the seed-style object-per-sphere port (benchmarks/seed_port.py);
   - MuJoCo stepping N free spheres, fluid model on (density 1000, viscosity 1e-3 Pa*s)
@@ -14,7 +15,6 @@ machine: ns per sphere-step (median of repeats) for
 """
 import argparse
 import csv
-import math
 import os
 from pathlib import Path
 import platform
@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 from benchmarks.seed_port import Environment, PointMass
-from pool_sim.physics import DEFAULT_EFFECTS, fused, Scene, Simulation, Spheres
+from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, Spheres
 
 COUNTS = (1, 10, 100, 1_000, 10_000, 100_000, 1_000_000)
 SEED_PORT_LARGEST = 10_000  # beyond, one step takes seconds
@@ -64,16 +64,10 @@ def random_spheres(count, seed=0):
         external_force=np.zeros((3, count)))
 
 
-def pool_sim_cost(count, effects, backend='auto', threads='all'):
+def pool_sim_cost(count, effects, backend='auto'):
     scene = Scene({'effects': list(effects)})
     sim = Simulation(scene, initial_spheres=random_spheres(count), backend=backend)
-    saved = fused.PARALLEL_FROM_SPHERES
-    if threads == 'one':
-        fused.PARALLEL_FROM_SPHERES = math.inf
-    try:
-        return timed(sim.step) / count * 1e9
-    finally:
-        fused.PARALLEL_FROM_SPHERES = saved
+    return timed(sim.step) / count * 1e9
 
 
 def seed_port_cost(count):
@@ -126,9 +120,7 @@ def measure(largest):
     bound = BYTES_PER_SPHERE_STEP / bandwidth * 1e9
     rows = []
     series = {
-        'pool_sim default (fused, all threads)': lambda n: pool_sim_cost(n, DEFAULT_EFFECTS),
-        'pool_sim default (fused, one thread)': lambda n: pool_sim_cost(
-            n, DEFAULT_EFFECTS, threads='one'),
+        'pool_sim default (fused)': lambda n: pool_sim_cost(n, DEFAULT_EFFECTS),
         'pool_sim default (numpy)': lambda n: pool_sim_cost(n, DEFAULT_EFFECTS, 'numpy'),
         'pool_sim gravity only (fused)': lambda n: pool_sim_cost(n, ['gravity'], 'fused'),
         'pool_sim gravity + drag (fused)': lambda n: pool_sim_cost(
@@ -163,8 +155,7 @@ def markdown(rows, bandwidth):
     for label in labels:
         cells = [f'{value[(label, n)]:.1f}' if (label, n) in value else '—' for n in counts]
         lines.append(f'| {label} | ' + ' | '.join(cells) + ' |')
-    default = 'pool_sim default (fused, all threads)'
-    one = 'pool_sim default (fused, one thread)'
+    default = 'pool_sim default (fused)'
 
     def ratio(a, b, n):
         return value[(a, n)] / value[(b, n)] if (a, n) in value and (b, n) in value else None
@@ -172,8 +163,7 @@ def markdown(rows, bandwidth):
     for n in counts:
         parts = []
         for label, against in (('seed-style port', default), ('MuJoCo, fluid on', default),
-                               ('MuJoCo, fluid on', one), (default, 'bandwidth bound'),
-                               (one, 'bandwidth bound')):
+                               ('MuJoCo, fluid off', default), (default, 'bandwidth bound')):
             r = ratio(label, against, n)
             if r is not None:
                 parts.append(f'{label} / {against}: {r:.1f}')

@@ -6,6 +6,7 @@ from rcl_interfaces.msg import Parameter as ParameterMessage, ParameterType, Par
 from rcl_interfaces.srv import SetParameters
 import pytest
 from std_srvs.srv import SetBool, Trigger
+from visualization_msgs.msg import MarkerArray
 
 from ros_harness import Harness, stamp_seconds
 
@@ -54,7 +55,9 @@ def test_a_larger_sphere_floats_higher_and_its_marker_grows():
         after = settled_height(ros, 'ice', 40.0)
         # Same mass, eight times the volume: far less of it under water.
         assert after > before + 0.1
-        assert ros.sim.messages.markers.markers[2].scale.x == pytest.approx(0.6)
+        markers = ros.collect(MarkerArray, 'markers')
+        assert ros.spin_until(lambda: markers)
+        assert markers[-1].markers[2].scale.x == pytest.approx(0.6)
 
 
 def test_ros2_param_set_takes_the_same_path_and_stays_in_step():

@@ -14,14 +14,8 @@ import numpy as np
 
 try:
     import numba
-    _prange = numba.prange  # a plain range except in the parallel build of _smooth
 except ImportError:  # optional: the numpy pipeline does everything without it
     numba = None
-    _prange = range
-
-# From this many spheres on, the smooth pass runs on every core: below it, starting the
-# threads costs more than they save.
-PARALLEL_FROM_SPHERES = 20_000
 
 FUSED_EFFECTS = frozenset({'gravity', 'buoyancy', 'drag', 'contact', 'friction'})
 FUSED_INTEGRATOR = 'linearly_implicit_euler'
@@ -38,14 +32,15 @@ def _smooth(position, velocity, mass, radius, volume, cross_section, drag_coeffi
             has_gravity, has_buoyancy, has_drag, old_position, old_velocity):
     """The smooth part of linearly_implicit_euler, in place; old_* receive the start state.
 
-    Branch-free per sphere (selects, not ifs) and written with scalars, so the compiler can
-    run several spheres per SIMD instruction: the same arithmetic as the numpy pipeline.
+    Written with scalars and selects, allocation-free: the same arithmetic as the numpy
+    pipeline. (LLVM does not vectorise it: numba cannot mark the ~20 array arguments as
+    not aliasing, so the per-sphere chain of square roots and divisions sets the cost.)
     """
     gx, gy, gz = gravity[0], gravity[1], gravity[2]
     wx, wy, wz = wind[0], wind[1], wind[2]
     cx, cy, cz = current[0], current[1], current[2]
     density_step = water_density - air_density
-    for i in _prange(position.shape[1]):
+    for i in range(position.shape[1]):
         x, y, z = position[0, i], position[1, i], position[2, i]
         vx, vy, vz = velocity[0, i], velocity[1, i], velocity[2, i]
         old_position[0, i], old_position[1, i], old_position[2, i] = x, y, z
@@ -159,8 +154,6 @@ def _contact(position, velocity, radius, old_position, old_velocity, pool_min, p
 
 if numba is not None:
     _smooth_kernel = numba.njit(cache=True, nogil=True, error_model='numpy')(_smooth)
-    _smooth_parallel_kernel = numba.njit(cache=True, nogil=True, error_model='numpy',
-                                         parallel=True)(_smooth)
     _contact_kernel = numba.njit(cache=True, nogil=True)(_contact)
 
 
@@ -173,9 +166,7 @@ def step(simulation, dt):
         scratch = simulation.fused_scratch = (np.empty_like(spheres.position),
                                               np.empty_like(spheres.velocity))
     old_position, old_velocity = scratch
-    smooth = (_smooth_parallel_kernel if spheres.count >= PARALLEL_FROM_SPHERES
-              else _smooth_kernel)
-    smooth(spheres.position, spheres.velocity, spheres.mass, spheres.radius, spheres.volume,
+    _smooth_kernel(spheres.position, spheres.velocity, spheres.mass, spheres.radius, spheres.volume,
            spheres.cross_section, spheres.drag_coefficient, spheres.external_force,
            env.gravity, env.air.density, env.air.flow_velocity, env.water.density,
            env.water.flow_velocity, env.surface_z, dt, has_gravity, has_buoyancy, has_drag,

@@ -1,5 +1,10 @@
-"""ROS messages from the simulation's arrays. Objects are built once and refilled each publish:
-creating rclpy messages is what costs, not filling their fields."""
+"""ROS messages from the simulation's arrays.
+
+PoseArray and MarkerArray are serialized once and patched in place each publish
+(serialized.py): their cost no longer grows with rclpy's per-element conversion. Odometry
+is one small message per sphere, refilled in place and built only for spheres someone
+listens to.
+"""
 import colorsys
 
 from builtin_interfaces.msg import Time
@@ -7,6 +12,8 @@ from geometry_msgs.msg import Point, Pose, PoseArray
 from nav_msgs.msg import Odometry
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
+
+from pool_sim.ros.serialized import PatchedMessage
 
 
 def stamp_of(seconds: float) -> Time:
@@ -20,48 +27,75 @@ def sphere_colour(index: int, count: int) -> ColorRGBA:
     return ColorRGBA(r=red, g=green, b=blue, a=1.0)
 
 
+def pose_array(count, frame_id) -> PoseArray:
+    poses = PoseArray()
+    poses.header.frame_id = frame_id
+    poses.poses = [Pose() for _ in range(count)]
+    return poses
+
+
+def sphere_markers(count, frame_id) -> MarkerArray:
+    """One SPHERE marker per sphere: ns 'spheres', id = index, a hue each."""
+    markers = MarkerArray()
+    for i in range(count):
+        marker = Marker(ns='spheres', id=i, type=Marker.SPHERE, action=Marker.ADD)
+        marker.header.frame_id = frame_id
+        marker.pose.orientation.w = 1.0
+        marker.color = sphere_colour(i, count)
+        markers.markers.append(marker)
+    return markers
+
+
+def _setter(*path):
+    """(message, index, value) -> sets element index's field at `path` (attribute names)."""
+    *parents, last = path
+
+    def set_value(message, index, value):
+        target = message
+        for name in parents:
+            target = target[index] if name == '[]' else getattr(target, name)
+        setattr(target, last, value)
+    return set_value
+
+
 class SphereMessages:
-    """PoseArray, MarkerArray and one Odometry per sphere, refilled from (3, n) arrays."""
+    """The per-publish messages of n spheres, refilled from (3, n) arrays."""
 
     def __init__(self, names, frame_id):
-        self.poses = PoseArray()
-        self.poses.header.frame_id = frame_id
-        self.poses.poses = [Pose() for _ in names]
-        self.markers = MarkerArray()
-        for i, name in enumerate(names):
-            marker = Marker(ns='spheres', id=i, type=Marker.SPHERE, action=Marker.ADD)
-            marker.header.frame_id = frame_id
-            marker.pose.orientation.w = 1.0
-            marker.color = sphere_colour(i, len(names))
-            self.markers.markers.append(marker)
+        count = len(names)
+        self.poses = PatchedMessage(
+            lambda: pose_array(count, frame_id), count,
+            {axis: _setter('poses', '[]', 'position', axis) for axis in 'xyz'},
+            stamp=lambda message, index: message.header.stamp, stamp_count=1)
+        doubles = {axis: _setter('markers', '[]', 'pose', 'position', axis) for axis in 'xyz'}
+        doubles.update({f'scale_{axis}': _setter('markers', '[]', 'scale', axis)
+                        for axis in 'xyz'})
+        self.markers = PatchedMessage(
+            lambda: sphere_markers(count, frame_id), count, doubles,
+            stamp=lambda message, index: message.markers[index].header.stamp,
+            stamp_count=count)
         self.odometry = []
         for name in names:
             odometry = Odometry(child_frame_id=name)
             odometry.header.frame_id = frame_id
             odometry.pose.pose.orientation.w = 1.0
             self.odometry.append(odometry)
-        # One Point per sphere, shared by its pose, marker and odometry: filled once per publish.
-        for pose, marker, odometry in zip(self.poses.poses, self.markers.markers, self.odometry):
-            marker.pose.position = pose.position
-            odometry.pose.pose.position = pose.position
 
-    def fill(self, time_s, position, velocity, radius):
-        """position, velocity: (3, n) m, m/s; radius: (n,) m; time_s: simulation time."""
+    def fill(self, time_s, position, velocity, radius, odometry_wanted=()):
+        """position, velocity: (3, n) m, m/s; radius: (n,) m; time_s: simulation time.
+        odometry_wanted: indices of the spheres whose Odometry is refilled."""
         stamp = stamp_of(time_s)
-        self.poses.header.stamp = stamp
-        xs, ys, zs = position.tolist()
-        vxs, vys, vzs = velocity.tolist()
-        diameters = (2.0 * radius).tolist()
-        for i, pose in enumerate(self.poses.poses):
-            point = pose.position
-            point.x, point.y, point.z = xs[i], ys[i], zs[i]
-            marker = self.markers.markers[i]
-            marker.header.stamp = stamp
-            marker.scale.x = marker.scale.y = marker.scale.z = diameters[i]
+        self.poses.patch(stamp.sec, stamp.nanosec, x=position[0], y=position[1], z=position[2])
+        diameter = 2.0 * radius
+        self.markers.patch(stamp.sec, stamp.nanosec, x=position[0], y=position[1],
+                           z=position[2], scale_x=diameter, scale_y=diameter,
+                           scale_z=diameter)
+        for i in odometry_wanted:
             odometry = self.odometry[i]
             odometry.header.stamp = stamp
-            linear = odometry.twist.twist.linear
-            linear.x, linear.y, linear.z = vxs[i], vys[i], vzs[i]
+            point, linear = odometry.pose.pose.position, odometry.twist.twist.linear
+            point.x, point.y, point.z = (float(v) for v in position[:, i])
+            linear.x, linear.y, linear.z = (float(v) for v in velocity[:, i])
 
 
 def scene_markers(pool, surface_z, frame_id) -> MarkerArray:
