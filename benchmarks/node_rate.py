@@ -88,10 +88,27 @@ def measure(real_time_factor, seconds, params_file=None):
         rclpy.shutdown(context=context)
         node.send_signal(signal.SIGINT)
         _, log = node.communicate(timeout=60)
-    reports = re.findall(r'wall time in (.*)$', log, re.MULTILINE)
-    report = reports[-1] if reports else 'n/a (ran under 5 s)'
     return (simulated / wall, received / wall, received / simulated, 100.0 * cpu / wall,
-            startup, report)
+            startup, node_own_figures(log, seconds))
+
+
+STATUS = re.compile(r'([\d.]+) s simulated in ([\d.]+) s .*?, (\d+) steps, (\d+) publishes; '
+                    r'wall time in (.*)$', re.MULTILINE)
+
+
+def node_own_figures(log, seconds):
+    """(RTF, publishes per wall s, time shares) from the node's own status lines (every
+    5 s, cumulative): the last line against the line `seconds` before it. A client can lag
+    behind large messages; the node's simulation clock and steady clock cannot."""
+    lines = [(float(a), float(b), int(c), int(d), e) for a, b, c, d, e in STATUS.findall(log)]
+    if len(lines) < 2:
+        return None
+    last = lines[-1]
+    first = next(line for line in lines if line[1] >= last[1] - seconds - 1.0)
+    if first is last:
+        first = lines[-2]
+    wall = last[1] - first[1]
+    return (last[0] - first[0]) / wall, (last[3] - first[3]) / wall, last[4]
 
 
 def main():
@@ -110,16 +127,19 @@ def main():
             print(f'| {real_time_factor:9g} | {rtf:12.3f} | {per_wall:14.1f} | '
                   f'{per_sim:13.2f} | {cpu:10.0f} |')
         print()
-    print(f'N spheres, 200 Hz physics, 30 Hz publishing, real_time_factor 1, {seconds:g} s each')
-    print('| spheres | start-up s | achieved RTF | poses / wall s | node CPU % | '
-          'node wall time in |')
-    print('|---:|---:|---:|---:|---:|---|')
+    print(f'N spheres, 200 Hz physics, 30 Hz publishing, real_time_factor 1; RTF and publish '
+          f'rate from the node\'s own clocks over the last {seconds:g} s it ran; the client '
+          'column is what one Python subscriber received')
+    print('| spheres | start-up s | achieved RTF | publishes / wall s | node CPU % | '
+          'node wall time in | client: poses / wall s |')
+    print('|---:|---:|---:|---:|---:|---|---:|')
     with tempfile.TemporaryDirectory() as folder:
         for count in (int(n) for n in args.spheres.split(',')):
             params = spheres_params_file(count, Path(folder) / f'spheres{count}.yaml')
-            rtf, per_wall, _, cpu, startup, report = measure(1.0, seconds, params)
-            print(f'| {count:,} | {startup:.1f} | {rtf:.3f} | {per_wall:.1f} | {cpu:.0f} | '
-                  f'{report} |', flush=True)
+            _, client_rate, _, cpu, startup, own = measure(1.0, seconds, params)
+            rtf, publishes, shares = own
+            print(f'| {count:,} | {startup:.1f} | {rtf:.3f} | {publishes:.1f} | {cpu:.0f} | '
+                  f'{shares} | {client_rate:.1f} |', flush=True)
 
 
 if __name__ == '__main__':
