@@ -18,6 +18,7 @@ import sys
 import tempfile
 import time
 
+from benchmarks.node_rate import node_own_figures
 from geometry_msgs.msg import PoseArray, Wrench
 import rclpy
 from rclpy.context import Context
@@ -58,6 +59,12 @@ def publish(namespace, sphere, seconds, index):
     rclpy.shutdown(context=context)
 
 
+def cpu_seconds(pid):
+    with open(f'/proc/{pid}/stat') as stat:
+        fields = stat.read().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
 def resident_megabytes(pid):
     with open(f'/proc/{pid}/status') as status:
         return int(re.search(r'VmRSS:\s+(\d+)', status.read()).group(1)) / 1024.0
@@ -73,6 +80,7 @@ def main():
         return
     namespace = f'/flood{os.getpid()}'
     with tempfile.TemporaryDirectory() as folder:
+        launched = time.monotonic()
         node = subprocess.Popen(
             [sys.executable, '-m', 'pool_sim.ros.simulator_node', '--ros-args',
              '--params-file', str(params_file(Path(folder) / 'flood.yaml')),
@@ -106,10 +114,12 @@ def main():
                 next_sample += 1.0
         wall = time.monotonic() - start
         window = poses[first:]
+        publisher_cpu = sum(cpu_seconds(p.pid) for p in publishers) / wall
         sent = sum(int(p.communicate(timeout=30)[0].split()[-1]) for p in publishers)
         executor.shutdown()
         client.destroy_node()
         rclpy.shutdown(context=context)
+        node_cpu = cpu_seconds(node.pid) / (time.monotonic() - launched)
         node.send_signal(signal.SIGINT)
         _, log = node.communicate(timeout=30)
     stamp = lambda m: m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec  # noqa: E731
@@ -120,11 +130,16 @@ def main():
     refused = log.count('refused a force that is not finite')
     print(f'{len(SPHERES)} publishers x {RATE_HZ:g} Hz for {args.seconds:g} s, one message in '
           'ten NaN, node at real_time_factor 1')
-    print('| messages sent | achieved RTF | poses received | all positions finite | '
-          'NaN warnings logged (throttled) | node RSS first / last / max, MB |')
-    print('|---:|---:|---:|---|---:|---|')
-    print(f'| {sent:,} | {simulated / elapsed:.3f} | {len(window)} | {finite} | {refused} | '
-          f'{memory[0]:.1f} / {memory[-1]:.1f} / {max(memory):.1f} |')
+    own = node_own_figures(log, args.seconds)
+    print('| messages sent | RTF, node clocks | RTF, client stamps | all positions finite | '
+          'NaN warnings logged (throttled) | node RSS first / last / max, MB | CPU: node / '
+          '4 publishers, cores |')
+    print('|---:|---:|---:|---|---:|---|---|')
+    print(f'| {sent:,} | {own[0]:.3f} | {simulated / elapsed:.3f} | {finite} | {refused} | '
+          f'{memory[0]:.1f} / {memory[-1]:.1f} / {max(memory):.1f} | {node_cpu:.2f} / '
+          f'{publisher_cpu:.2f} |')
+    print()
+    print('node RSS each second, MB: ' + ', '.join(f'{m:.1f}' for m in memory))
 
 
 if __name__ == '__main__':

@@ -9,6 +9,7 @@ in this process counts ~/poses and reads their stamps. Achieved RTF = simulated 
 (from the stamps) / wall seconds.
 """
 import argparse
+import math
 import os
 from pathlib import Path
 import re
@@ -87,9 +88,13 @@ def measure(real_time_factor, seconds, params_file=None):
     finally:
         rclpy.shutdown(context=context)
         node.send_signal(signal.SIGINT)
-        _, log = node.communicate(timeout=60)
-    return (simulated / wall, received / wall, received / simulated, 100.0 * cpu / wall,
-            startup, node_own_figures(log, seconds))
+        stopping = time.monotonic()
+        _, log = node.communicate(timeout=600)  # thousands of DDS endpoints to tear down
+        shutdown = time.monotonic() - stopping
+    client_rtf = simulated / wall if received else math.nan
+    per_simulated = received / simulated if simulated > 0 else math.nan
+    return (client_rtf, received / wall, per_simulated, 100.0 * cpu / wall,
+            (startup, shutdown), node_own_figures(log, seconds))
 
 
 STATUS = re.compile(r'([\d.]+) s simulated in ([\d.]+) s .*?, (\d+) steps, (\d+) publishes; '
@@ -130,16 +135,16 @@ def main():
     print(f'N spheres, 200 Hz physics, 30 Hz publishing, real_time_factor 1; RTF and publish '
           f'rate from the node\'s own clocks over the last {seconds:g} s it ran; the client '
           'column is what one Python subscriber received')
-    print('| spheres | start-up s | achieved RTF | publishes / wall s | node CPU % | '
+    print('| spheres | start-up / shutdown s | achieved RTF | publishes / wall s | node CPU % | '
           'node wall time in | client: poses / wall s |')
     print('|---:|---:|---:|---:|---:|---|---:|')
     with tempfile.TemporaryDirectory() as folder:
         for count in (int(n) for n in args.spheres.split(',')):
             params = spheres_params_file(count, Path(folder) / f'spheres{count}.yaml')
-            _, client_rate, _, cpu, startup, own = measure(1.0, seconds, params)
+            _, client_rate, _, cpu, (startup, shutdown), own = measure(1.0, seconds, params)
             rtf, publishes, shares = own
-            print(f'| {count:,} | {startup:.1f} | {rtf:.3f} | {publishes:.1f} | {cpu:.0f} | '
-                  f'{shares} | {client_rate:.1f} |', flush=True)
+            print(f'| {count:,} | {startup:.0f} / {shutdown:.0f} | {rtf:.3f} | {publishes:.1f} | '
+                  f'{cpu:.0f} | {shares} | {client_rate:.1f} |', flush=True)
 
 
 if __name__ == '__main__':
