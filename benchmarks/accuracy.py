@@ -19,7 +19,7 @@ import platform
 import numpy as np
 
 from benchmarks import reference
-from benchmarks.common import median_seconds
+from benchmarks.common import timed
 from pool_sim.physics import DEFAULT_INTEGRATOR, INTEGRATORS, Scene, Simulation
 from pool_sim.physics import fused
 from pool_sim.physics.stability import stable_step_bound
@@ -107,7 +107,7 @@ def cost_ns_per_sphere_step(scene, integrator, backend='numpy'):
     params.update({'sphere_names': names, 'integrator': integrator})
     sim = Simulation(Scene(params), backend=backend)
     sim.step()  # compile the kernel, if any, outside the timing
-    return median_seconds(sim.step, repeats=7, inner=10) / len(names) * 1e9
+    return timed(sim.step) / len(names) * 1e9
 
 
 def observed_order(rows):

@@ -1,4 +1,5 @@
-"""Shared by the benchmarks: many-sphere scenes and a median timer."""
+"""Shared by the benchmarks: many-sphere scenes, a median timer, CPU time of a process."""
+import os
 import statistics
 import time
 
@@ -22,8 +23,12 @@ def many_spheres_scene(count, effects, seed=0, **keys):
     return Scene(params)
 
 
-def median_seconds(function, repeats=7, inner=20):
-    """Median over `repeats` of the mean wall time of `inner` calls, s."""
+def timed(function, budget_s=0.6, repeats=7):
+    """Median seconds per call: each repeat runs enough calls to last budget_s/repeats."""
+    start = time.perf_counter()
+    function()
+    once = max(time.perf_counter() - start, 1e-7)
+    inner = max(1, int(budget_s / repeats / once))
     samples = []
     for _ in range(repeats):
         start = time.perf_counter()
@@ -31,3 +36,10 @@ def median_seconds(function, repeats=7, inner=20):
             function()
         samples.append((time.perf_counter() - start) / inner)
     return statistics.median(samples)
+
+
+def cpu_seconds(pid):
+    """User + system CPU seconds a process has used so far (from /proc)."""
+    with open(f'/proc/{pid}/stat') as stat:
+        fields = stat.read().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')

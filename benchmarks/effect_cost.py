@@ -6,7 +6,7 @@ Prints ns per sphere-step (median of repeats, all rows measured in one run).
 """
 import argparse
 
-from benchmarks.common import many_spheres_scene, median_seconds
+from benchmarks.common import many_spheres_scene, timed
 from pool_sim.physics import DEFAULT_EFFECTS, Simulation
 
 SCENES = [
@@ -22,13 +22,13 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--spheres', type=int, default=1000)
     count = parser.parse_args().spheres
-    print(f'{count} spheres, default integrator; ns per sphere-step, median of 7 x 20 steps')
+    print(f'{count} spheres, default integrator; ns per sphere-step, median of 7 repeats')
     print(f'| {"effects":<55} | ns/sphere-step | vs default |')
     print(f'|{"-" * 57}|---------------:|-----------:|')
     baseline = None
     for label, effects in SCENES:
         sim = Simulation(many_spheres_scene(count, effects))
-        cost = median_seconds(sim.step) / count * 1e9
+        cost = timed(sim.step) / count * 1e9
         baseline = baseline or cost
         print(f'| {label:<55} | {cost:14.1f} | {cost / baseline:10.2f} |')
 

@@ -18,6 +18,7 @@ import sys
 import tempfile
 import time
 
+from benchmarks.common import cpu_seconds
 from benchmarks.node_rate import node_own_figures
 from geometry_msgs.msg import PoseArray, Wrench
 import rclpy
@@ -57,12 +58,6 @@ def publish(namespace, sphere, seconds, index):
     print(sent, flush=True)
     node.destroy_node()
     rclpy.shutdown(context=context)
-
-
-def cpu_seconds(pid):
-    with open(f'/proc/{pid}/stat') as stat:
-        fields = stat.read().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
 def resident_megabytes(pid):

@@ -10,7 +10,7 @@ sends as they are. Median of repeats, all in one run.
 import numpy as np
 from rclpy.serialization import serialize_message
 
-from benchmarks.scaling import timed
+from benchmarks.common import timed
 from pool_sim.ros.messages import pose_array, sphere_markers, SphereMessages
 
 

@@ -19,20 +19,14 @@ import sys
 import tempfile
 import time
 
+from benchmarks.common import cpu_seconds
 from geometry_msgs.msg import PoseArray
 import numpy as np
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 
-CLOCK_TICKS = os.sysconf('SC_CLK_TCK')
 WARM_UP_S = 2.0
-
-
-def cpu_seconds(pid):
-    with open(f'/proc/{pid}/stat') as stat:
-        fields = stat.read().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS
 
 
 def spheres_params_file(count, path):
@@ -118,7 +112,8 @@ def node_own_figures(log, seconds):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument('--seconds', type=float, default=10.0)
+    parser.add_argument('--seconds', type=float, default=10.0,
+                        help='measuring window; 10 or more (the node logs every 5 s)')
     parser.add_argument('--spheres', default='3,100,1000,5000')
     parser.add_argument('--skip-default', action='store_true')
     args = parser.parse_args()
@@ -142,6 +137,10 @@ def main():
         for count in (int(n) for n in args.spheres.split(',')):
             params = spheres_params_file(count, Path(folder) / f'spheres{count}.yaml')
             _, client_rate, _, cpu, (startup, shutdown), own = measure(1.0, seconds, params)
+            if own is None:  # status lines come every 5 s: a short or stalled run has < 2
+                print(f'| {count:,} | {startup:.0f} / {shutdown:.0f} | no status lines to '
+                      f'measure from | | {cpu:.0f} | | {client_rate:.1f} |', flush=True)
+                continue
             rtf, publishes, shares = own
             print(f'| {count:,} | {startup:.0f} / {shutdown:.0f} | {rtf:.3f} | {publishes:.1f} | '
                   f'{cpu:.0f} | {shares} | {client_rate:.1f} |', flush=True)

@@ -18,11 +18,10 @@ import csv
 import os
 from pathlib import Path
 import platform
-import statistics
-import time
 
 import numpy as np
 
+from benchmarks.common import timed
 from benchmarks.seed_port import Environment, PointMass
 from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, Spheres
 
@@ -33,21 +32,6 @@ MUJOCO_LARGEST = 10_000  # a model holds at most 65 534 bodies; 10 000 load in ~
 # volume, cross-section, drag coefficient (1 each) and writes position and velocity, plus
 # its start-of-step copy of both (3 + 3 doubles written, then read by the contact pass).
 BYTES_PER_SPHERE_STEP = 8 * ((3 + 3 + 3 + 5) + (3 + 3) + 2 * (3 + 3))
-
-
-def timed(function, budget_s=0.6, repeats=7):
-    """Median seconds per call: each repeat runs enough calls to last budget_s/repeats."""
-    start = time.perf_counter()
-    function()
-    once = max(time.perf_counter() - start, 1e-7)
-    inner = max(1, int(budget_s / repeats / once))
-    samples = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        for _ in range(inner):
-            function()
-        samples.append((time.perf_counter() - start) / inner)
-    return statistics.median(samples)
 
 
 def random_spheres(count, seed=0):
