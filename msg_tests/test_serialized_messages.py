@@ -10,10 +10,6 @@ from visualization_msgs.msg import MarkerArray
 from pool_sim.ros.messages import pose_array, sphere_markers, SphereMessages, stamp_of
 
 
-def read_back(data, message_type):
-    return deserialize_message(data, message_type)
-
-
 def round_trip(message):
     """What a subscriber receives of `message`: float32 fields (colours) come back rounded."""
     return deserialize_message(serialize_message(message), type(message))
@@ -39,8 +35,9 @@ def test_patched_pose_and_marker_arrays_read_back_as_the_expected_messages(count
             marker.pose.position.x, marker.pose.position.y, marker.pose.position.z = \
                 position[:, i].tolist()
             marker.scale.x = marker.scale.y = marker.scale.z = 2.0 * float(radius[i])
-        assert read_back(messages.poses.to_bytes(), PoseArray) == round_trip(expected_poses)
-        assert read_back(messages.markers.to_bytes(), MarkerArray) == round_trip(
+        assert deserialize_message(messages.poses.to_bytes(), PoseArray) == round_trip(
+            expected_poses)
+        assert deserialize_message(messages.markers.to_bytes(), MarkerArray) == round_trip(
             expected_markers)
         # Same layout as rclpy's own: the same length.
         assert len(messages.markers.to_bytes()) == len(serialize_message(expected_markers))

@@ -166,11 +166,11 @@ def step(simulation, dt):
         scratch = simulation.fused_scratch = (np.empty_like(spheres.position),
                                               np.empty_like(spheres.velocity))
     old_position, old_velocity = scratch
-    _smooth_kernel(spheres.position, spheres.velocity, spheres.mass, spheres.radius, spheres.volume,
-           spheres.cross_section, spheres.drag_coefficient, spheres.external_force,
-           env.gravity, env.air.density, env.air.flow_velocity, env.water.density,
-           env.water.flow_velocity, env.surface_z, dt, has_gravity, has_buoyancy, has_drag,
-           old_position, old_velocity)
+    _smooth_kernel(spheres.position, spheres.velocity, spheres.mass, spheres.radius,
+                   spheres.volume, spheres.cross_section, spheres.drag_coefficient,
+                   spheres.external_force, env.gravity, env.air.density, env.air.flow_velocity,
+                   env.water.density, env.water.flow_velocity, env.surface_z, dt, has_gravity,
+                   has_buoyancy, has_drag, old_position, old_velocity)
     if has_contact:
         _contact_kernel(spheres.position, spheres.velocity, spheres.radius, old_position,
                         old_velocity, env.pool.corner_min, env.pool.corner_max,

@@ -75,14 +75,12 @@ def linearly_implicit_euler(dynamics, spheres, position, velocity, dt):
         pushed = np.sqrt(np.einsum('ij,ij->j', relative_momentum, relative_momentum))
         end_speed = 2.0 * pushed / (inertia + np.sqrt(inertia * inertia
                                                       + 4.0 * dt * total * pushed))
-        gains = []
         for factor, flow in ((factor_air, flow_air), (factor_water, flow_water)):
             relative = velocity - flow
             speed = np.sqrt(np.einsum('ij,ij->j', relative, relative))
             gain = factor * np.maximum(speed, end_speed)
             momentum += dt * gain * flow
             denominator += dt * gain
-            gains.append(gain)
     stiffness = dynamics.vertical_stiffness(spheres, position)
     weight = 0.5
     if stiffness is not None:

@@ -3,6 +3,7 @@
 This is what the node, the tests and the benchmarks drive. Every setter validates before it
 writes, so a refused input leaves the state exactly as it was.
 """
+import dataclasses
 import math
 
 import numpy as np
@@ -43,9 +44,8 @@ class Simulation:
         # 'auto' takes the compiled loop where it computes the same thing, numpy elsewhere.
         self.backend = 'fused' if fusable and backend != 'numpy' else 'numpy'
         self.fused_scratch = None  # (3, n) start-of-step state, kept between steps
-        params = self.contact_parameters
-        self.contact_tuple = (params.restitution, params.static_friction,
-                              params.kinetic_friction, params.rolling_friction)
+        # The kernel takes ContactParameters as a tuple, in its field order.
+        self.contact_tuple = dataclasses.astuple(self.contact_parameters)
         self.effect_flags = tuple(name in scene['effects'] for name in (
             'gravity', 'buoyancy', 'drag', 'contact', 'friction'))
         self.reset()

@@ -23,9 +23,10 @@ def scene_from_overrides(overrides: dict, default: Scene) -> Scene:
     overrides = {name: value for name, value in overrides.items()
                  if name not in ROS_OWN_PARAMETERS and not name.startswith('qos_overrides.')}
     names = overrides.get('sphere_names', default.sphere_names)
-    names = () if names is None else tuple(names) if not isinstance(names, str) else names
+    # A wrong type is left for Scene to refuse, naming the key.
+    names = tuple(names) if isinstance(names, (list, tuple)) else ()
     params = {key: default[key] for key in GLOBAL_KEYS}
-    for name in names if isinstance(names, tuple) else ():
+    for name in names:
         for key in SPHERE_KEYS:
             dotted = f'{name}.{key}'
             if name in default.sphere_names and dotted not in overrides:

@@ -39,7 +39,6 @@ class PatchedMessage:
     """
 
     def __init__(self, build, count, doubles, stamp, stamp_count):
-        self.count = count
         self.buffer = bytearray(serialize_message(build()))
         marked = build()
         elements = min(count, 2)

@@ -86,7 +86,7 @@ class PoolSimNode(Node):
         self.add_post_set_parameters_callback(self._apply_parameters)
 
         self._torque_warned = set()
-        # Wall seconds spent in each part, for the log line at shutdown and the benchmarks.
+        # Wall seconds spent in each part, for the status line and the benchmarks.
         self.time_spent = {'physics': 0.0, 'build': 0.0, 'publish': 0.0}
         self.next_listener_check, self.odometry_wanted = 0.0, []
         self.publishes = 0
@@ -278,10 +278,10 @@ class PoolSimNode(Node):
     def _on_set_sphere(self, key, request, response):
         """Each entry: name = sphere, value = new mass (kg) or radius (m); a result each."""
         for entry in request.parameters:
-            if entry.name not in self.scene.sphere_names:
-                response.results.append(SetParametersResult(
-                    successful=False, reason=f'unknown sphere {entry.name!r}; known spheres: '
-                    f'{", ".join(self.scene.sphere_names)}'))
+            try:
+                self.simulation.spheres.lookup(entry.name)
+            except InvalidInput as error:
+                response.results.append(SetParametersResult(successful=False, reason=str(error)))
                 continue
             value = parameter_value_to_python(entry.value)
             if isinstance(value, int) and not isinstance(value, bool):
