@@ -139,6 +139,9 @@ def test_reset_restores_the_initial_scene_and_time_zero():
         assert ros.spin_until(lambda: any(stamp_seconds(p.header) == 0.0 for p in poses))
         first = next(p for p in poses if stamp_seconds(p.header) == 0.0)
         assert first.poses[0].position.z == 3.7
+        # The node's own account (its status line) still counts the steps before the reset.
+        simulated = float(ros.sim.time_report().split(' s simulated')[0])
+        assert simulated > 1.0 > ros.sim.simulation.time
 
 
 def test_pause_freezes_stamps_and_positions_and_services_still_answer():

@@ -89,7 +89,8 @@ class PoolSimNode(Node):
         # Wall seconds spent in each part, for the status line and the benchmarks.
         self.time_spent = {'physics': 0.0, 'build': 0.0, 'publish': 0.0}
         self.next_listener_check, self.odometry_wanted = 0.0, []
-        self.publishes = 0
+        # Counted across resets (which restart simulation time): what the node has done.
+        self.publishes, self.steps_taken, self.simulated_s = 0, 0, 0.0
         self.started_wall = time.monotonic()
         self.next_status_wall = time.monotonic() + STATUS_PERIOD_S
         self.scene_marker_publisher.publish(scene_markers(
@@ -127,7 +128,6 @@ class PoolSimNode(Node):
         self.backlog_s = 0.0
         self.last_wall = time.monotonic()
         self.wrench_time = np.full(count, -math.inf)
-        self.steps_taken = 0
 
     def _on_tick(self):
         now = time.monotonic()
@@ -163,6 +163,7 @@ class PoolSimNode(Node):
         sim.step()
         self.time_spent['physics'] += time.perf_counter() - started
         self.steps_taken += 1
+        self.simulated_s += sim.max_step
         if sim.time >= self.next_publish_time - 1e-9:
             self._publish_state()
             self.next_publish_time += self.publish_period
@@ -211,8 +212,8 @@ class PoolSimNode(Node):
         wall = max(time.monotonic() - self.started_wall, 1e-9)
         parts = ', '.join(f'{name} {seconds / wall:.1%}'
                           for name, seconds in self.time_spent.items())
-        return (f'{self.simulation.time:.2f} s simulated in {wall:.2f} s '
-                f'(real-time factor {self.simulation.time / wall:.3f}), {self.steps_taken} '
+        return (f'{self.simulated_s:.2f} s simulated in {wall:.2f} s '
+                f'(real-time factor {self.simulated_s / wall:.3f}), {self.steps_taken} '
                 f'steps, {self.publishes} publishes; wall time in {parts}')
 
     # -- inputs ------------------------------------------------------------------------------
