@@ -1,7 +1,7 @@
 """set_mass, set_radius, `ros2 param set`, reset and pause, through real services."""
 import math
 
-from geometry_msgs.msg import PoseArray
+from geometry_msgs.msg import PoseArray, Wrench
 from rcl_interfaces.msg import Parameter as ParameterMessage, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
 import pytest
@@ -165,3 +165,15 @@ def test_pause_freezes_stamps_and_positions_and_services_still_answer():
         assert ros.call(SetBool, 'pause', SetBool.Request(data=False)).message == 'running'
         assert ros.spin_until(lambda: len(poses) > count + 3)
         assert stamp_seconds(poses[-1].header) > frozen_time
+
+
+def test_a_wrench_waiting_for_the_next_tick_does_not_outlive_a_reset():
+    # One tick a second, so the reset is answered between two ticks.
+    with Harness({'real_time_factor': 1.0, 'publish_rate_hz': 1.0}) as ros:
+        message = Wrench()
+        message.force.x = 5.0
+        ros.sim.pending_wrenches_put('cork', message)  # as the wrench thread hands it over
+        assert ros.call(Trigger, 'reset', Trigger.Request()).success
+        ros.spin_for(1.5)
+        assert ros.sim.simulation.time > 0.0
+        assert not ros.sim.simulation.spheres.external_force.any()

@@ -74,8 +74,9 @@ class PoolSimNode(Node):
             for name in names]
         self.clock_publisher = (self.create_publisher(ClockMessage, '/clock', 10)
                                 if scene['publish_clock'] else None)
-        # Latest wrench per sphere, filled by the WrenchInputs thread, applied on each tick.
-        self.pending_wrenches = {}
+        # Latest wrench per sphere, filled by the WrenchInputs thread, applied on each tick;
+        # the lock keeps a wrench from landing in the dict while the tick walks it.
+        self.pending_wrenches, self.pending_lock = {}, threading.Lock()
         self.wrench_inputs = WrenchInputs(self, names, self.pending_wrenches_put)
         self.create_service(SetParameters, '~/set_mass', partial(self._on_set_sphere, 'mass'))
         self.create_service(SetParameters, '~/set_radius',
@@ -220,10 +221,16 @@ class PoolSimNode(Node):
 
     def pending_wrenches_put(self, name, message):
         """Called on the WrenchInputs thread: only records; the tick applies it."""
-        self.pending_wrenches[name] = message
+        with self.pending_lock:
+            self.pending_wrenches[name] = message
+
+    def _take_pending_wrenches(self):
+        with self.pending_lock:
+            pending, self.pending_wrenches = self.pending_wrenches, {}
+        return pending
 
     def _apply_pending_wrenches(self):
-        pending, self.pending_wrenches = self.pending_wrenches, {}
+        pending = self._take_pending_wrenches()
         for name, message in pending.items():
             self._on_wrench(name, message)
 
@@ -297,6 +304,7 @@ class PoolSimNode(Node):
         return response
 
     def _on_reset(self, request, response):
+        self._take_pending_wrenches()  # forces sent before the reset do not outlive it
         self.simulation.reset()
         self._reset_timing()
         self.set_parameters([
