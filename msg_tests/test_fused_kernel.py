@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from pool_sim.physics import InvalidInput, Scene, Simulation
-from pool_sim.physics.fused import FUSED_EFFECTS, numba
+from pool_sim.physics.fused import FUSED_EFFECTS, numba, PARALLEL_FROM_SPHERES
 
 pytestmark = pytest.mark.skipif(numba is None, reason='numba is not installed')
 
@@ -33,11 +33,13 @@ def random_scene(effects, seed, count=40):
     return Scene(params)
 
 
+# Both builds of the kernel: the plain loop below PARALLEL_FROM_SPHERES, the parallel one above.
+@pytest.mark.parametrize('count', [PARALLEL_FROM_SPHERES // 2, PARALLEL_FROM_SPHERES * 3])
 @pytest.mark.parametrize('effects', EFFECT_SETS, ids='+'.join)
-def test_fused_and_numpy_agree_step_for_step(effects):
-    scene = random_scene(effects, seed=len(effects))
+def test_fused_and_numpy_agree_step_for_step(effects, count):
+    scene = random_scene(effects, seed=len(effects), count=count)
     fused, plain = Simulation(scene, backend='fused'), Simulation(scene, backend='numpy')
-    force = np.random.default_rng(1).normal(size=(3, 40)) * 20.0
+    force = np.random.default_rng(1).normal(size=(3, count)) * 20.0
     fused.spheres.external_force[:] = force
     plain.spheres.external_force[:] = force
     for _ in range(300):

@@ -7,8 +7,13 @@ linearly_implicit_euler with the effects gravity, buoyancy (exact cap), drag, co
 friction; a test holds the two to agreement. An effect the scene does not list is a branch
 not taken. Anything else (lift, added mass, other integrators, the linear submerged volume)
 runs on the numpy pipeline, and so does everything when numba is not installed.
+
+From PARALLEL_FROM_SPHERES spheres up the smooth pass runs as a numba parallel loop, on as
+many threads as numba is set to use in the calling thread (use_threads; the node uses one).
 """
 import math
+import threading
+import types
 
 import numpy as np
 
@@ -33,24 +38,28 @@ def _smooth(position, velocity, mass, radius, volume, cross_section, drag_coeffi
     """The smooth part of linearly_implicit_euler, in place; old_* receive the start state.
 
     Written with scalars and selects, allocation-free: the same arithmetic as the numpy
-    pipeline. (LLVM does not vectorise it: numba cannot mark the ~20 array arguments as
-    not aliasing, so the per-sphere chain of square roots and divisions sets the cost.)
+    pipeline. Compiled twice: as a plain loop, and as a parallel loop (prange) for many
+    spheres, which pays for itself even on one thread: numba proves a parallel loop's
+    arrays do not alias and tells LLVM so, which then computes four spheres at once
+    (packed square roots and divisions) where the plain loop stays scalar.
     """
     gx, gy, gz = gravity[0], gravity[1], gravity[2]
     wx, wy, wz = wind[0], wind[1], wind[2]
     cx, cy, cz = current[0], current[1], current[2]
     density_step = water_density - air_density
-    for i in range(position.shape[1]):
+    for i in numba.prange(position.shape[1]):
         x, y, z = position[0, i], position[1, i], position[2, i]
         vx, vy, vz = velocity[0, i], velocity[1, i], velocity[2, i]
         old_position[0, i], old_position[1, i], old_position[2, i] = x, y, z
         old_velocity[0, i], old_velocity[1, i], old_velocity[2, i] = vx, vy, vz
         m, r = mass[i], radius[i]
-        depth = surface_z - (z - r)
-        depth = 0.0 if depth < 0.0 else depth
-        depth = 2.0 * r if depth > 2.0 * r else depth
-        h = depth / r
-        fraction = 0.25 * h * h * (3.0 - h)
+        fraction = 0.0  # of the volume under water: geometry for buoyancy and drag only
+        if has_buoyancy or has_drag:
+            depth = surface_z - (z - r)
+            depth = 0.0 if depth < 0.0 else depth
+            depth = 2.0 * r if depth > 2.0 * r else depth
+            h = depth / r
+            fraction = 0.25 * h * h * (3.0 - h)
         fx, fy, fz = external_force[0, i], external_force[1, i], external_force[2, i]
         if has_gravity:
             fx += gx * m
@@ -152,9 +161,33 @@ def _contact(position, velocity, radius, old_position, old_velocity, pool_min, p
                 position[a, i] = min(max(position[a, i], pool_min[a] + r), pool_max[a] - r)
 
 
+def _renamed(function, name):
+    """The same code as a function of another name. numba's on-disk cache tells compiled
+    functions apart by name and line, not by options: without this, the parallel build
+    and the plain one would overwrite each other's cache."""
+    copy = types.FunctionType(function.__code__.replace(co_name=name), function.__globals__,
+                              name)
+    copy.__qualname__ = name
+    return copy
+
+
 if numba is not None:
-    _smooth_kernel = numba.njit(cache=True, nogil=True, error_model='numpy')(_smooth)
+    _smooth_serial = numba.njit(cache=True, nogil=True, error_model='numpy')(_smooth)
+    _smooth_parallel = numba.njit(cache=True, nogil=True, error_model='numpy', parallel=True)(
+        _renamed(_smooth, '_smooth_parallel'))
     _contact_kernel = numba.njit(cache=True, nogil=True)(_contact)
+# Below this many spheres launching a parallel loop costs more than vectorising saves.
+PARALLEL_FROM_SPHERES = 64
+# numba's default threading layer (workqueue) aborts the process when two threads launch
+# parallel loops at once: simulations stepped from several threads take turns.
+_parallel_launch = threading.Lock()
+
+
+def use_threads(count):
+    """Threads the parallel loop may use when the calling thread steps (numba's setting,
+    per thread; numba's default is one per core)."""
+    if numba is not None:
+        numba.set_num_threads(count)
 
 
 def step(simulation, dt):
@@ -166,11 +199,16 @@ def step(simulation, dt):
         scratch = simulation.fused_scratch = (np.empty_like(spheres.position),
                                               np.empty_like(spheres.velocity))
     old_position, old_velocity = scratch
-    _smooth_kernel(spheres.position, spheres.velocity, spheres.mass, spheres.radius,
-                   spheres.volume, spheres.cross_section, spheres.drag_coefficient,
-                   spheres.external_force, env.gravity, env.air.density, env.air.flow_velocity,
-                   env.water.density, env.water.flow_velocity, env.surface_z, dt, has_gravity,
-                   has_buoyancy, has_drag, old_position, old_velocity)
+    arguments = (spheres.position, spheres.velocity, spheres.mass, spheres.radius,
+                 spheres.volume, spheres.cross_section, spheres.drag_coefficient,
+                 spheres.external_force, env.gravity, env.air.density, env.air.flow_velocity,
+                 env.water.density, env.water.flow_velocity, env.surface_z, dt, has_gravity,
+                 has_buoyancy, has_drag, old_position, old_velocity)
+    if spheres.position.shape[1] >= PARALLEL_FROM_SPHERES:
+        with _parallel_launch:
+            _smooth_parallel(*arguments)
+    else:
+        _smooth_serial(*arguments)
     if has_contact:
         _contact_kernel(spheres.position, spheres.velocity, spheres.radius, old_position,
                         old_velocity, env.pool.corner_min, env.pool.corner_max,

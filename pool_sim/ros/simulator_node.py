@@ -27,7 +27,7 @@ from rosgraph_msgs.msg import Clock as ClockMessage
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
-from pool_sim.physics import InvalidInput, Scene, Simulation
+from pool_sim.physics import fused, InvalidInput, Scene, Simulation
 from pool_sim.physics.stability import stable_step_bound
 from pool_sim.ros.messages import scene_markers, SphereMessages, stamp_of
 from pool_sim.ros.parameters import (declare_scene, live_key, overrides_of,
@@ -51,6 +51,9 @@ class PoolSimNode(Node):
         self.scene = scene_from_overrides(overrides_of(self), default_scene)
         declare_scene(self, self.scene)
         self.simulation = Simulation(self.scene)
+        # The physics loop on one thread (this one, which spins the timer): the machine's
+        # other cores serve DDS, the wrench thread and the subscribers.
+        fused.use_threads(1)
         scene, names = self.scene, self.scene.sphere_names
 
         self.real_time_factor = scene['real_time_factor']
