@@ -4,8 +4,8 @@
 
 Writes scaling.csv, scaling.md and scaling.png. All figures come from one run on one
 machine: ns per sphere-step (median of repeats) for
-  - pool_sim's default step (fused kernel, one thread, as the node runs it) and its numpy
-    path;
+  - pool_sim's default step (fused kernel, one thread, as the node runs it; and on every
+    core) and its numpy path;
   - the price of each effect: gravity only, gravity + drag (fused kernel);
   - the seed-style object-per-sphere port (benchmarks/seed_port.py);
   - MuJoCo stepping N free spheres, fluid model on (density 1000, viscosity 1e-3 Pa*s)
@@ -23,10 +23,11 @@ import numpy as np
 
 from benchmarks.common import timed
 from benchmarks.seed_port import Environment, PointMass
-from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, Spheres
+from pool_sim.physics import DEFAULT_EFFECTS, fused, Scene, Simulation, Spheres
 
 COUNTS = (1, 10, 100, 1_000, 10_000, 100_000, 1_000_000)
 SEED_PORT_LARGEST = 10_000  # beyond, one step takes seconds
+CORES = os.cpu_count()
 MUJOCO_LARGEST = 10_000  # a model holds at most 65 534 bodies; 10 000 load in ~13 s
 # The fused step reads position, velocity, external force (3 doubles each), mass, radius,
 # volume, cross-section, drag coefficient (1 each) and writes position and velocity, plus
@@ -48,10 +49,14 @@ def random_spheres(count, seed=0):
         external_force=np.zeros((3, count)))
 
 
-def pool_sim_cost(count, effects, backend='auto'):
+def pool_sim_cost(count, effects, backend='auto', threads=1):
     scene = Scene({'effects': list(effects)})
     sim = Simulation(scene, initial_spheres=random_spheres(count), backend=backend)
-    return timed(sim.step) / count * 1e9
+    fused.use_threads(threads)
+    try:
+        return timed(sim.step) / count * 1e9
+    finally:
+        fused.use_threads(1)
 
 
 def seed_port_cost(count):
@@ -105,6 +110,8 @@ def measure(largest):
     rows = []
     series = {
         'pool_sim default (fused)': lambda n: pool_sim_cost(n, DEFAULT_EFFECTS),
+        f'pool_sim default (fused, {CORES} threads)': lambda n: pool_sim_cost(
+            n, DEFAULT_EFFECTS, threads=CORES),
         'pool_sim default (numpy)': lambda n: pool_sim_cost(n, DEFAULT_EFFECTS, 'numpy'),
         'pool_sim gravity only (fused)': lambda n: pool_sim_cost(n, ['gravity'], 'fused'),
         'pool_sim gravity + drag (fused)': lambda n: pool_sim_cost(
@@ -113,8 +120,13 @@ def measure(largest):
         'MuJoCo, fluid on': lambda n: mujoco_cost(n, True) if n <= MUJOCO_LARGEST else None,
         'MuJoCo, fluid off': lambda n: mujoco_cost(n, False) if n <= MUJOCO_LARGEST else None,
     }
-    for label, cost in series.items():
-        for count in counts:
+    # The first timing in a process runs slow (9.9 against 5.5 µs for the same one-sphere
+    # step, measured): one untimed round first.
+    pool_sim_cost(1, DEFAULT_EFFECTS)
+    # Count by count, every series in turn: the figures behind a ratio at one N are taken
+    # within a minute of each other, not at either end of the run.
+    for count in counts:
+        for label, cost in series.items():
             value = cost(count)
             if value is not None:
                 rows.append({'series': label, 'spheres': count, 'ns_per_sphere_step': value})
