@@ -177,3 +177,17 @@ def test_a_wrench_waiting_for_the_next_tick_does_not_outlive_a_reset():
         ros.spin_for(1.5)
         assert ros.sim.simulation.time > 0.0
         assert not ros.sim.simulation.spheres.external_force.any()
+
+
+def test_a_node_that_falls_behind_drops_the_backlog_and_says_how_much():
+    with Harness({'real_time_factor': 1.0}) as ros:
+        assert ros.spin_until(lambda: ros.sim.simulation.time > 0.2)
+        before, given_up_before = ros.sim.simulation.time, ros.sim.given_up_s
+        ros.sim.last_wall -= 1.0  # as if the process had stalled for a second
+        ros.sim._on_tick()
+        caught_up = ros.sim.simulation.time - before
+        assert caught_up == pytest.approx(0.1, abs=0.006)  # the bound, to a step
+        # The stall, plus the moments since the last tick, less what was caught up.
+        assert 0.89 <= ros.sim.given_up_s - given_up_before <= 1.2
+        assert f'{ros.sim.given_up_s:.2f} s given up to the catch-up bound' in \
+            ros.sim.time_report()

@@ -6,7 +6,7 @@ from rclpy.context import Context
 
 from pool_sim.physics import InvalidInput
 from pool_sim.ros.depth_keeper import DepthKeeper
-from pool_sim.ros.simulator_node import PoolSimNode
+from pool_sim.ros.simulator_node import named_few, PoolSimNode
 from ros_harness import Harness, overrides
 
 
@@ -67,3 +67,12 @@ def test_the_depth_keeper_holds_its_sphere_within_5_cm_after_20_s():
         assert abs(z - (-target_depth)) < 0.05
         # The others are untouched by the keeper.
         assert ros.sim.simulation.spheres.external_force[:, :2].tolist() == [[0, 0]] * 3
+
+
+def test_log_lines_name_a_few_spheres_and_count_the_rest():
+    # A 2 000-sphere start-up line once listed every name.
+    assert named_few(['cork', 'steel', 'ice']) == 'cork, steel, ice'
+    names = [f's{i}' for i in range(2000)]
+    assert named_few(names) == 's0, s1, s2, s3 and 1996 more'
+    heights = [f's{i} z=1.00 m' for i in range(4)]  # the status line passes only the first
+    assert named_few(heights, count=6) == ', '.join(heights) + ' and 2 more'

@@ -35,11 +35,19 @@ from pool_sim.ros.parameters import (declare_scene, live_key, overrides_of,
 
 # Wall time one tick may spend stepping at real_time_factor 0, so services stay responsive.
 FAST_TICK_BUDGET_S = 0.02
-# Simulated time the node may fall behind before it drops the backlog.
+# Wall time the node may fall behind and still catch up (then it drops the backlog).
 MAX_BACKLOG_WALL_S = 0.1
 # Wall seconds between the status lines in the log, and how many spheres they name.
 STATUS_PERIOD_S = 5.0
 STATUS_SPHERES = 4
+
+
+def named_few(items, count=None):
+    """The first STATUS_SPHERES of `items` (of `count` in all), then how many more: a log
+    line stays a line with thousands of spheres."""
+    count = len(items) if count is None else count
+    more = count - STATUS_SPHERES
+    return ', '.join(items[:STATUS_SPHERES]) + (f' and {more} more' if more > 0 else '')
 
 
 class PoolSimNode(Node):
@@ -77,9 +85,8 @@ class PoolSimNode(Node):
             for name in names]
         self.clock_publisher = (self.create_publisher(ClockMessage, '/clock', 10)
                                 if scene['publish_clock'] else None)
-        # Latest wrench per sphere, filled by the WrenchInputs thread, applied on each tick;
-        # the lock keeps a wrench from landing in the dict while the tick walks it.
-        self.pending_wrenches, self.pending_lock = {}, threading.Lock()
+        # Latest wrench per sphere, filled by the WrenchInputs thread, emptied by each tick.
+        self.pending_wrenches = {}
         self.wrench_inputs = WrenchInputs(self, names, self.pending_wrenches_put)
         self.create_service(SetParameters, '~/set_mass', partial(self._on_set_sphere, 'mass'))
         self.create_service(SetParameters, '~/set_radius',
@@ -95,8 +102,10 @@ class PoolSimNode(Node):
         self.next_listener_check, self.odometry_wanted = 0.0, []
         # Counted across resets (which restart simulation time): what the node has done.
         self.publishes, self.steps_taken, self.simulated_s = 0, 0, 0.0
-        self.started_wall = time.monotonic()
-        self.next_status_wall = time.monotonic() + STATUS_PERIOD_S
+        # Simulated seconds the catch-up bound let go when the node fell behind.
+        self.given_up_s = 0.0
+        self.started_wall = time.monotonic()  # both set again once set-up is done
+        self.next_status_wall = self.started_wall + STATUS_PERIOD_S
         self.scene_marker_publisher.publish(scene_markers(
             self.simulation.environment.pool, scene['water.surface_z'], scene['frame_id']))
         self._publish_state()
@@ -110,10 +119,15 @@ class PoolSimNode(Node):
                                        clock=Clock(clock_type=ClockType.STEADY_TIME))
         self._warn_if_unstable()
         self.get_logger().info(
-            f'{len(names)} spheres ({", ".join(names)}); {scene["integrator"]} at '
+            f'{len(names)} spheres ({named_few(names)}); {scene["integrator"]} at '
             f'{scene["physics_rate_hz"]:g} Hz, publishing at {scene["publish_rate_hz"]:g} Hz '
             f'of simulated time, real_time_factor {self.real_time_factor:g}; effects: '
             f'{", ".join(scene["effects"]) or "none"}')
+        # Load the compiled kernel on a throwaway copy now, and start the clock after it and
+        # after the set-up above: neither is the node falling behind.
+        Simulation(self.scene, initial_spheres=self.simulation.spheres.copy()).step()
+        self.last_wall = self.started_wall = time.monotonic()
+        self.next_status_wall = self.started_wall + STATUS_PERIOD_S
 
     def _warn_if_unstable(self):
         bound = stable_step_bound(self.scene)
@@ -143,7 +157,9 @@ class PoolSimNode(Node):
         stepped = False
         if self.real_time_factor > 0:
             limit = max(2.0 * dt, MAX_BACKLOG_WALL_S * self.real_time_factor)
-            self.backlog_s = min(self.backlog_s + elapsed * self.real_time_factor, limit)
+            owed = self.backlog_s + elapsed * self.real_time_factor
+            self.backlog_s = min(owed, limit)
+            self.given_up_s += owed - self.backlog_s
             while self.backlog_s >= dt * (1.0 - 1e-9):
                 self._step()
                 self.backlog_s -= dt
@@ -204,12 +220,10 @@ class PoolSimNode(Node):
 
     def _log_status(self):
         spheres = self.simulation.spheres
-        shown = ', '.join(f'{name} z={z:.2f} m' for name, z in zip(
-            spheres.names[:STATUS_SPHERES], spheres.position[2, :STATUS_SPHERES].tolist()))
-        more = spheres.count - STATUS_SPHERES
-        self.get_logger().info(f't={self.simulation.time:.1f} s: {shown}'
-                               + (f' and {more} more' if more > 0 else '')
-                               + f'. {self.time_report()}')
+        heights = [f'{name} z={z:.2f} m' for name, z in zip(
+            spheres.names[:STATUS_SPHERES], spheres.position[2, :STATUS_SPHERES].tolist())]
+        self.get_logger().info(f't={self.simulation.time:.1f} s: '
+                               f'{named_few(heights, spheres.count)}. {self.time_report()}')
 
     def time_report(self) -> str:
         """Where the wall time went since start; part of the status line every 5 s."""
@@ -218,23 +232,21 @@ class PoolSimNode(Node):
                           for name, seconds in self.time_spent.items())
         return (f'{self.simulated_s:.2f} s simulated in {wall:.2f} s '
                 f'(real-time factor {self.simulated_s / wall:.3f}), {self.steps_taken} '
-                f'steps, {self.publishes} publishes; wall time in {parts}')
+                f'steps, {self.publishes} publishes, {self.given_up_s:.2f} s given up to '
+                f'the catch-up bound; wall time in {parts}')
 
     # -- inputs ------------------------------------------------------------------------------
 
     def pending_wrenches_put(self, name, message):
         """Called on the WrenchInputs thread: only records; the tick applies it."""
-        with self.pending_lock:
-            self.pending_wrenches[name] = message
-
-    def _take_pending_wrenches(self):
-        with self.pending_lock:
-            pending, self.pending_wrenches = self.pending_wrenches, {}
-        return pending
+        self.pending_wrenches[name] = message
 
     def _apply_pending_wrenches(self):
-        pending = self._take_pending_wrenches()
-        for name, message in pending.items():
+        # popitem and the other thread's setitem are each atomic: nothing is lost and the
+        # dict is never walked while it changes (walking it raised if a wrench landed).
+        pending = self.pending_wrenches
+        while pending:
+            name, message = pending.popitem()
             self._on_wrench(name, message)
 
     def destroy_node(self):
@@ -307,7 +319,7 @@ class PoolSimNode(Node):
         return response
 
     def _on_reset(self, request, response):
-        self._take_pending_wrenches()  # forces sent before the reset do not outlive it
+        self.pending_wrenches.clear()  # forces sent before the reset do not outlive it
         self.simulation.reset()
         self._reset_timing()
         self.set_parameters([
