@@ -126,13 +126,15 @@ def main():
     print(f'{len(SPHERES)} publishers x {RATE_HZ:g} Hz for {args.seconds:g} s, one message in '
           'ten NaN, node at real_time_factor 1')
     own = node_own_figures(log, args.seconds)
-    print('| messages sent | RTF, node clocks | RTF, client stamps | all positions finite | '
+    print('| messages sent | RTF, node clocks | simulated s given up to the catch-up bound | '
+          'RTF, client stamps | all positions finite | '
           'NaN warnings logged (throttled) | node RSS first / last / max, MB | CPU: node / '
-          '4 publishers, cores |')
-    print('|---:|---:|---:|---|---:|---|---|')
-    print(f'| {sent:,} | {own[0]:.3f} | {simulated / elapsed:.3f} | {finite} | {refused} | '
+          '4 publishers, cores | node wall time in |')
+    print('|---:|---:|---:|---:|---|---:|---|---|---|')
+    print(f'| {sent:,} | {own[0]:.3f} | {own[3]:.2f} | {simulated / elapsed:.3f} | {finite} | '
+          f'{refused} | '
           f'{memory[0]:.1f} / {memory[-1]:.1f} / {max(memory):.1f} | {node_cpu:.2f} / '
-          f'{publisher_cpu:.2f} |')
+          f'{publisher_cpu:.2f} | {own[2]} |')
     print()
     print('node RSS each second, MB: ' + ', '.join(f'{m:.1f}' for m in memory))
 

@@ -1,6 +1,6 @@
 """The node started as a user starts it: achieved real-time factor, publish rate and CPU.
 
-    .venv/bin/python -m benchmarks.node_rate [--seconds 10] [--spheres 3,100,1000,5000]
+    .venv/bin/python -m benchmarks.node_rate [--seconds 10] [--spheres 3,100,1000,5000,10000]
 
 Table 1: the default pool at real_time_factor 1, 10 and 0. Table 2: N spheres from a
 params file (physics 200 Hz, publishing 30 Hz, real_time_factor 1), with where the node's
@@ -27,6 +27,7 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 
 WARM_UP_S = 2.0
+STARTUP_LIMIT_S = 900.0  # a row whose node sends no pose by then is reported as such
 
 
 def spheres_params_file(count, path):
@@ -42,6 +43,10 @@ def spheres_params_file(count, path):
                      f'position: [{x:.3f}, {y:.3f}, {z:.3f}]}}')
     path.write_text('\n'.join(lines) + '\n')
     return path
+
+
+class NoPoses(Exception):
+    """The node sent no pose within STARTUP_LIMIT_S."""
 
 
 def measure(real_time_factor, seconds, params_file=None):
@@ -63,9 +68,11 @@ def measure(real_time_factor, seconds, params_file=None):
             PoseArray, f'{namespace}/pool_sim/poses',
             lambda m: stamps.append((time.monotonic(), m.header.stamp.sec
                                      + 1e-9 * m.header.stamp.nanosec)), 100)
-        while not stamps:  # start-up and discovery
-            executor.spin_once(timeout_sec=0.05)
+        while not stamps and time.monotonic() - launched < STARTUP_LIMIT_S:
+            executor.spin_once(timeout_sec=0.05)  # start-up and discovery
         startup = time.monotonic() - launched
+        if not stamps:
+            raise NoPoses(startup)
         warm_up_until = time.monotonic() + WARM_UP_S  # first steps load the compiled kernel
         while time.monotonic() < warm_up_until:
             executor.spin_once(timeout_sec=0.05)
@@ -91,15 +98,18 @@ def measure(real_time_factor, seconds, params_file=None):
             (startup, shutdown), node_own_figures(log, seconds))
 
 
-STATUS = re.compile(r'([\d.]+) s simulated in ([\d.]+) s .*?, (\d+) steps, (\d+) publishes; '
+STATUS = re.compile(r'([\d.]+) s simulated in ([\d.]+) s .*?, (\d+) steps, (\d+) publishes, '
+                    r'([\d.]+) s given up to the catch-up bound; '
                     r'wall time in (.*)$', re.MULTILINE)
 
 
 def node_own_figures(log, seconds):
-    """(RTF, publishes per wall s, time shares) from the node's own status lines (every
-    5 s, cumulative): the last line against the line `seconds` before it. A client can lag
-    behind large messages; the node's simulation clock and steady clock cannot."""
-    lines = [(float(a), float(b), int(c), int(d), e) for a, b, c, d, e in STATUS.findall(log)]
+    """(RTF, publishes per wall s, time shares, simulated s given up to the catch-up bound)
+    from the node's own status lines (every 5 s, cumulative): the last line against the line
+    `seconds` before it. A client can lag behind large messages; the node's simulation clock
+    and steady clock cannot."""
+    lines = [(float(a), float(b), int(c), int(d), e, float(given_up))
+             for a, b, c, d, given_up, e in STATUS.findall(log)]
     if len(lines) < 2:
         return None
     last = lines[-1]
@@ -107,14 +117,26 @@ def node_own_figures(log, seconds):
     if first is last:
         first = lines[-2]
     wall = last[1] - first[1]
-    return (last[0] - first[0]) / wall, (last[3] - first[3]) / wall, last[4]
+    # The shares are of the wall time since start, start-up and kernel loading included:
+    # take the window's own share of each part from the two lines.
+    first_shares, last_shares = shares_of(first[4]), shares_of(last[4])
+    window = ', '.join(
+        f'{part} {(share * last[1] - first_shares[part] * first[1]) / wall:.1%}'
+        for part, share in last_shares.items())
+    return (last[0] - first[0]) / wall, (last[3] - first[3]) / wall, window, last[5] - first[5]
+
+
+def shares_of(text):
+    """'physics 3.4%, build 0.2%' -> {'physics': 0.034, 'build': 0.002}"""
+    return {name: float(percent) / 100.0
+            for name, percent in re.findall(r'(\w+) ([\d.]+)%', text)}
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--seconds', type=float, default=10.0,
                         help='measuring window; 10 or more (the node logs every 5 s)')
-    parser.add_argument('--spheres', default='3,100,1000,5000')
+    parser.add_argument('--spheres', default='3,100,1000,5000,10000')
     parser.add_argument('--skip-default', action='store_true')
     args = parser.parse_args()
     seconds = args.seconds
@@ -127,21 +149,26 @@ def main():
             print(f'| {real_time_factor:9g} | {rtf:12.3f} | {per_wall:14.1f} | '
                   f'{per_sim:13.2f} | {cpu:10.0f} |')
         print()
-    print(f'N spheres, 200 Hz physics, 30 Hz publishing, real_time_factor 1; RTF and publish '
-          f'rate from the node\'s own clocks over the last {seconds:g} s it ran; the client '
-          'column is what one Python subscriber received')
+    print(f'N spheres, 200 Hz physics, 30 Hz publishing, real_time_factor 1; RTF, publish '
+          f'rate and where the wall time went from the node\'s own clocks over the last '
+          f'{seconds:g} s it ran; the client column is what one Python subscriber received')
     print('| spheres | start-up / shutdown s | achieved RTF | publishes / wall s | node CPU % | '
           'node wall time in | client: poses / wall s |')
     print('|---:|---:|---:|---:|---:|---|---:|')
     with tempfile.TemporaryDirectory() as folder:
         for count in (int(n) for n in args.spheres.split(',')):
             params = spheres_params_file(count, Path(folder) / f'spheres{count}.yaml')
-            _, client_rate, _, cpu, (startup, shutdown), own = measure(1.0, seconds, params)
+            try:
+                _, client_rate, _, cpu, (startup, shutdown), own = measure(1.0, seconds, params)
+            except NoPoses as waited:
+                print(f'| {count:,} | no pose within {waited.args[0]:.0f} s | | | | | |',
+                      flush=True)
+                continue
             if own is None:  # status lines come every 5 s: a short or stalled run has < 2
                 print(f'| {count:,} | {startup:.0f} / {shutdown:.0f} | no status lines to '
                       f'measure from | | {cpu:.0f} | | {client_rate:.1f} |', flush=True)
                 continue
-            rtf, publishes, shares = own
+            rtf, publishes, shares, _ = own
             print(f'| {count:,} | {startup:.0f} / {shutdown:.0f} | {rtf:.3f} | {publishes:.1f} | '
                   f'{cpu:.0f} | {shares} | {client_rate:.1f} |', flush=True)
 
