@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from pool_sim.physics import InvalidInput, Scene, Simulation
-from pool_sim.physics.fused import FUSED_EFFECTS, numba, PARALLEL_FROM_SPHERES
+from pool_sim.physics import fused as fused_module
+from pool_sim.physics.fused import FUSED_EFFECTS, numba
 
 pytestmark = pytest.mark.skipif(numba is None, reason='numba is not installed')
 
@@ -33,10 +34,12 @@ def random_scene(effects, seed, count=40):
     return Scene(params)
 
 
-# Both builds of the kernel: the plain loop below PARALLEL_FROM_SPHERES, the parallel one above.
-@pytest.mark.parametrize('count', [PARALLEL_FROM_SPHERES // 2, PARALLEL_FROM_SPHERES * 3])
+# Both builds of the kernel: the plain loop below the threshold, the parallel one above (held
+# at 64 spheres whichever threading layer this machine has).
+@pytest.mark.parametrize('count', [32, 192])
 @pytest.mark.parametrize('effects', EFFECT_SETS, ids='+'.join)
-def test_fused_and_numpy_agree_step_for_step(effects, count):
+def test_fused_and_numpy_agree_step_for_step(effects, count, monkeypatch):
+    monkeypatch.setattr(fused_module, 'parallel_from_spheres', lambda: 64)
     scene = random_scene(effects, seed=len(effects), count=count)
     fused, plain = Simulation(scene, backend='fused'), Simulation(scene, backend='numpy')
     force = np.random.default_rng(1).normal(size=(3, count)) * 20.0
@@ -64,3 +67,10 @@ def test_auto_takes_the_kernel_only_where_it_computes_the_same_thing(keys, backe
 def test_asking_for_the_kernel_where_it_does_not_apply_is_refused():
     with pytest.raises(InvalidInput, match='fused kernel needs'):
         Simulation(Scene.default().with_values(integrator='rk4'), backend='fused')
+
+
+@pytest.mark.parametrize('layer, spheres', [('omp', 64), ('tbb', 64), ('workqueue', 4096)])
+def test_the_parallel_build_starts_where_its_launch_pays_for_this_threading_layer(
+        layer, spheres, monkeypatch):
+    monkeypatch.setattr(fused_module, '_threading_layer', layer)
+    assert fused_module.parallel_from_spheres() == spheres

@@ -8,7 +8,7 @@ friction; a test holds the two to agreement. An effect the scene does not list i
 not taken. Anything else (lift, added mass, other integrators, the linear submerged volume)
 runs on the numpy pipeline, and so does everything when numba is not installed.
 
-From PARALLEL_FROM_SPHERES spheres up the smooth pass runs as a numba parallel loop, on as
+From parallel_from_spheres() spheres up the smooth pass runs as a numba parallel loop, on as
 many threads as numba is set to use in the calling thread (use_threads; the node uses one).
 """
 import math
@@ -176,8 +176,13 @@ if numba is not None:
     _smooth_parallel = numba.njit(cache=True, nogil=True, error_model='numpy', parallel=True)(
         _renamed(_smooth, '_smooth_parallel'))
     _contact_kernel = numba.njit(cache=True, nogil=True)(_contact)
-# Below this many spheres launching a parallel loop costs more than vectorising saves.
-PARALLEL_FROM_SPHERES = 64
+# Below this many spheres launching the parallel loop costs more than vectorising saves.
+# A launch costs ~5 us with the OpenMP or TBB threading layer and ~100 us with numba's own
+# workqueue, the one left where neither library is installed (measured, one thread: at
+# 1 000 spheres 21 against 55 us a step with OpenMP, 107 against 58 us with workqueue; at
+# 10 000, 299 against 433 us with workqueue).
+PARALLEL_FROM_SPHERES = {'omp': 64, 'tbb': 64, 'workqueue': 4096}
+_threading_layer = None  # numba knows it only after the first parallel launch
 # numba's default threading layer (workqueue) aborts the process when two threads launch
 # parallel loops at once: simulations stepped from several threads take turns.
 _parallel_launch = threading.Lock()
@@ -188,6 +193,18 @@ def use_threads(count):
     per thread; numba's default is one per core)."""
     if numba is not None:
         numba.set_num_threads(count)
+
+
+def parallel_from_spheres():
+    """How many spheres make the parallel build worth launching, for numba's threading
+    layer (taken to be OpenMP's until the first launch shows which it is)."""
+    global _threading_layer
+    if _threading_layer is None:
+        try:
+            _threading_layer = numba.threading_layer()
+        except ValueError:  # nothing launched yet
+            return PARALLEL_FROM_SPHERES['omp']
+    return PARALLEL_FROM_SPHERES.get(_threading_layer, PARALLEL_FROM_SPHERES['workqueue'])
 
 
 def step(simulation, dt):
@@ -204,7 +221,10 @@ def step(simulation, dt):
                  spheres.external_force, env.gravity, env.air.density, env.air.flow_velocity,
                  env.water.density, env.water.flow_velocity, env.surface_z, dt, has_gravity,
                  has_buoyancy, has_drag, old_position, old_velocity)
-    if spheres.position.shape[1] >= PARALLEL_FROM_SPHERES:
+    count = spheres.position.shape[1]
+    # The cheap test first: a small scene never launches the parallel build, and asking numba
+    # for its threading layer before any launch costs an exception each time.
+    if count >= min(PARALLEL_FROM_SPHERES.values()) and count >= parallel_from_spheres():
         with _parallel_launch:
             _smooth_parallel(*arguments)
     else:
