@@ -81,8 +81,8 @@ def run_ten_seconds(sim):
 
 
 VERTICAL = st.sampled_from([np.array([0.0, 0.0, -1.0]), np.array([0.0, 0.0, 1.0])])
-SETTINGS = settings(max_examples=40, deadline=None,
-                    suppress_health_check=[HealthCheck.too_slow])
+# How many examples: the profile loaded in conftest.py (40 unless asked otherwise).
+SETTINGS = settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
 @SETTINGS
