@@ -51,13 +51,14 @@ def drag_factors(env, spheres, water_fraction):
             shape * env.water.density * water_fraction)
 
 
-def drag_gains(env, spheres, velocity, water_fraction):
+def drag_gains(env, factors, velocity):
     """Quadratic drag written as linear gains: F = -gain_air*(v - wind) - gain_water*(v - current).
 
-    gain = factor * |v_rel|, kg/s, one (n,) array per medium.
+    factors: drag_factors' (factor_air, factor_water). gain = factor * |v_rel|, kg/s, one
+    (n,) array per medium.
     """
     gains = []
-    for medium, factor in zip((env.air, env.water), drag_factors(env, spheres, water_fraction)):
+    for medium, factor in zip((env.air, env.water), factors):
         relative = velocity - medium.flow_velocity[:, None]
         gains.append(factor * np.sqrt(np.einsum('ij,ij->j', relative, relative)))
     return gains[0], gains[1]
@@ -113,9 +114,8 @@ class Dynamics:
 
     def drag_gains(self, spheres, velocity, water_fraction):
         """(gain_air, gain_water) kg/s, or None when drag is not listed."""
-        if not self.has_drag:
-            return None
-        return drag_gains(self.env, spheres, velocity, water_fraction)
+        factors = self.drag_factors(spheres, water_fraction)
+        return None if factors is None else drag_gains(self.env, factors, velocity)
 
     def drag_factors(self, spheres, water_fraction):
         """(factor_air, factor_water) kg/m, or None when drag is not listed."""

@@ -5,6 +5,8 @@ function of (3, n) arrays in m and m/s; contacts are resolved afterwards, outsid
 """
 import numpy as np
 
+from .effects import drag_gains
+
 
 def explicit_euler(dynamics, spheres, position, velocity, dt):
     """Forward Euler: first order, unstable for stiff drag or a stiff float."""
@@ -75,10 +77,9 @@ def linearly_implicit_euler(dynamics, spheres, position, velocity, dt):
         pushed = np.sqrt(np.einsum('ij,ij->j', relative_momentum, relative_momentum))
         end_speed = 2.0 * pushed / (inertia + np.sqrt(inertia * inertia
                                                       + 4.0 * dt * total * pushed))
-        for factor, flow in ((factor_air, flow_air), (factor_water, flow_water)):
-            relative = velocity - flow
-            speed = np.sqrt(np.einsum('ij,ij->j', relative, relative))
-            gain = factor * np.maximum(speed, end_speed)
+        for factor, gain, flow in zip(factors, drag_gains(env, factors, velocity),
+                                      (flow_air, flow_water)):
+            gain = np.maximum(gain, factor * end_speed)  # factor * max(|v_rel|, end speed)
             momentum += dt * gain * flow
             denominator += dt * gain
     stiffness = dynamics.vertical_stiffness(spheres, position)
