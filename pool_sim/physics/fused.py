@@ -182,7 +182,7 @@ if numba is not None:
 # 1 000 spheres 21 against 55 us a step with OpenMP, 107 against 58 us with workqueue; at
 # 10 000, 299 against 433 us with workqueue).
 PARALLEL_FROM_SPHERES = {'omp': 64, 'tbb': 64, 'workqueue': 4096}
-_threading_layer = None  # numba knows it only after the first parallel launch
+_threading_layer = None  # numba knows it only after a parallel launch: set after our first
 # numba's default threading layer (workqueue) aborts the process when two threads launch
 # parallel loops at once: simulations stepped from several threads take turns.
 _parallel_launch = threading.Lock()
@@ -197,18 +197,14 @@ def use_threads(count):
 
 def parallel_from_spheres():
     """How many spheres make the parallel build worth launching, for numba's threading
-    layer (taken to be OpenMP's until the first launch shows which it is)."""
-    global _threading_layer
-    if _threading_layer is None:
-        try:
-            _threading_layer = numba.threading_layer()
-        except ValueError:  # nothing launched yet
-            return PARALLEL_FROM_SPHERES['omp']
-    return PARALLEL_FROM_SPHERES.get(_threading_layer, PARALLEL_FROM_SPHERES['workqueue'])
+    layer (taken to be OpenMP's until our first launch shows which it is)."""
+    return PARALLEL_FROM_SPHERES.get(_threading_layer or 'omp',
+                                     PARALLEL_FROM_SPHERES['workqueue'])
 
 
 def step(simulation, dt):
     """Advance `simulation` (a Simulation the kernel supports) by dt in place."""
+    global _threading_layer
     env, spheres = simulation.environment, simulation.spheres
     has_gravity, has_buoyancy, has_drag, has_contact, has_friction = simulation.effect_flags
     scratch = simulation.fused_scratch
@@ -221,12 +217,10 @@ def step(simulation, dt):
                  spheres.external_force, env.gravity, env.air.density, env.air.flow_velocity,
                  env.water.density, env.water.flow_velocity, env.surface_z, dt, has_gravity,
                  has_buoyancy, has_drag, old_position, old_velocity)
-    count = spheres.position.shape[1]
-    # The cheap test first: a small scene never launches the parallel build, and asking numba
-    # for its threading layer before any launch costs an exception each time.
-    if count >= min(PARALLEL_FROM_SPHERES.values()) and count >= parallel_from_spheres():
+    if spheres.position.shape[1] >= parallel_from_spheres():
         with _parallel_launch:
             _smooth_parallel(*arguments)
+            _threading_layer = _threading_layer or numba.threading_layer()
     else:
         _smooth_serial(*arguments)
     if has_contact:
