@@ -22,7 +22,7 @@ import platform
 import numpy as np
 
 from benchmarks import reference
-from benchmarks.common import seconds_per_step_in_turns
+from benchmarks.common import seconds_per_step_in_turns, write_csv
 from pool_sim.physics import DEFAULT_INTEGRATOR, INTEGRATORS, Scene, Simulation
 from pool_sim.physics import fused
 from pool_sim.physics.stability import stable_step_bound
@@ -180,13 +180,6 @@ def read_csv(path):
             row[key] = (value == 'True') if key == 'stable' else float(value)
         row['rate_hz'] = int(row['rate_hz'])
     return rows
-
-
-def write_csv(rows, path):
-    with open(path, 'w', newline='') as stream:
-        writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
 
 
 def markdown(rows):

@@ -1,4 +1,5 @@
-"""Shared by the benchmarks: many-sphere scenes, a median timer, CPU time of a process."""
+"""Shared by the benchmarks: many-sphere scenes, median timers, CPU time of a process, CSV."""
+import csv
 import os
 import statistics
 import time
@@ -62,3 +63,11 @@ def seconds_per_step_in_turns(simulations, steps=20, repeats=31, restart=False):
                 simulation.step()
             mine.append((time.perf_counter() - start) / steps)
     return [statistics.median(mine) for mine in samples]
+
+
+def write_csv(rows, path):
+    """Rows (dicts with the same keys) as a CSV file with a header."""
+    with open(path, 'w', newline='') as stream:
+        writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)

@@ -14,14 +14,13 @@ machine: ns per sphere-step (median of repeats) for
     divided by a copy bandwidth measured in the same run.
 """
 import argparse
-import csv
 import os
 from pathlib import Path
 import platform
 
 import numpy as np
 
-from benchmarks.common import timed
+from benchmarks.common import timed, write_csv
 from benchmarks.seed_port import Environment, PointMass
 from pool_sim.physics import DEFAULT_EFFECTS, fused, Scene, Simulation, Spheres
 
@@ -199,10 +198,7 @@ def main():
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows, bandwidth = measure(args.largest)
-    with open(out / 'scaling.csv', 'w', newline='') as stream:
-        writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(rows, out / 'scaling.csv')
     table = markdown(rows, bandwidth)
     (out / 'scaling.md').write_text(table)
     plot(rows, out / 'scaling.png')
