@@ -36,7 +36,7 @@ def test_bad_mass_or_radius_is_refused_and_changes_nothing(setter, value):
 def test_unknown_sphere_is_refused_naming_the_known_ones(setter):
     sim = Simulation(Scene.default())
     before = snapshot(sim)
-    with pytest.raises(InvalidInput, match="unknown sphere 'moon'.*cork, steel, ice"):
+    with pytest.raises(InvalidInput, match="unknown sphere 'moon'; known spheres: cork, steel, ice$"):
         getattr(sim, setter)('moon', 1.0)
     assert_unchanged(sim, before)
 
@@ -81,7 +81,7 @@ BAD_SCENES = [
     ({'sphere_names': ['a'], 'a.mas': 1.0}, 'a.mas: unknown key'),
     ({'sphere_names': ['a'], 'b.mass': 1.0}, 'b.mass: unknown key'),
     ({'gravty': [0, 0, -9.81]}, 'gravty: unknown key'),
-    ({'sphere_names': ['a'], 'a.mass': -1.0}, 'a.mass: must be > 0'),
+    ({'sphere_names': ['a'], 'a.mass': -1.0}, r'a.mass: must be within \[1e-06, 1e\+09\] kg'),
     ({'sphere_names': ['a'], 'a.mass': 'heavy'}, 'a.mass: expected a number'),
     ({'sphere_names': ['a'], 'a.radius': math.nan}, 'a.radius: must be finite'),
     ({'sphere_names': ['a'], 'a.position': [0, 0]}, 'a.position: expected 3 numbers'),
@@ -89,13 +89,13 @@ BAD_SCENES = [
     ({'effects': ['gravity', 'magic']}, 'effects: must be a subset'),
     ({'effects': ['gravity', 'friction']}, 'effects: friction acts through floor contact'),
     ({'integrator': 'leapfrog'}, 'integrator: must be one of'),
-    ({'physics_rate_hz': 0.0}, 'physics_rate_hz: must be > 0'),
-    ({'contact.restitution': 1.5}, 'contact.restitution: must be between 0 and 1'),
+    ({'physics_rate_hz': 0.0}, r'physics_rate_hz: must be within \[1, 100000\] Hz'),
+    ({'contact.restitution': 1.5}, r'contact.restitution: must be within \[0, 1\]'),
     ({'contact.kinetic_friction': 0.9}, 'contact.kinetic_friction: must not exceed'),
     ({'publish_clock': 'yes'}, 'publish_clock: expected true or false'),
     ({'sphere_names': 'a'}, 'sphere_names: expected a list of strings'),
     ({'sphere_names': ['a', 'a']}, 'sphere_names: names must be unique'),
-    ({'sphere_names': ['a.b']}, 'sphere_names: .* is not a valid ROS name part'),
+    ({'sphere_names': ['a.b']}, 'sphere_names: .* is not a valid ROS name token'),
     ({'pool.min': [0, 0, 0], 'pool.max': [1, 1, -1]}, 'pool.max: must exceed pool.min'),
     ({'sphere_names': ['a'], 'a.radius': 5.0}, 'a.radius: 5.0 m does not fit the pool'),
     ({'sphere_names': ['a'], 'a.lift_normal': [0, 0, 0]}, 'a.lift_normal: must be a non-zero'),

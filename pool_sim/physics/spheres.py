@@ -2,9 +2,16 @@
 
 Component-major keeps each of x, y, z contiguous, which is what numpy streams fastest.
 Setters validate first and only then write, so a refused value changes nothing.
+
+Every number a client or a file can set has a physically meaningful range, checked here
+(numbers, vectors) and shown in the node's parameter descriptors. Within the ranges the
+arithmetic of a step cannot overflow; what an unstable explicit integrator still does is
+caught by the step guard (Simulation).
 """
 from dataclasses import dataclass
 import math
+import numbers
+import re
 
 import numpy as np
 
@@ -13,27 +20,108 @@ class InvalidInput(ValueError):
     """A value the simulation refuses; the message names the key and what is allowed."""
 
 
+# The ranges of the quantities the core takes from outside (inclusive).
+MASS_RANGE_KG = (1e-6, 1e9)  # a milligram to a large ship
+RADIUS_RANGE_M = (1e-4, 1e3)  # a tenth of a millimetre to a kilometre (it must fit the pool)
+FORCE_LIMIT_N = 1e9  # per component: far beyond any thruster (a Saturn V lifts off on 3.5e7)
+# How many names a message lists before it counts the rest, so that a reply or a log line
+# stays short with thousands of spheres.
+NAMES_SHOWN = 4
+# Longest repr of a refused value a message quotes.
+VALUE_SHOWN_CHARACTERS = 60
+# A sphere name is one ROS name token (it becomes a topic name part): a letter or an
+# underscore, then letters, digits and underscores; no '__' (ROS reserves it).
+NAME_TOKEN = re.compile(r'[A-Za-z_][A-Za-z0-9_]*')
+NAME_MAX_CHARACTERS = 64
+
+
+def named_few(items, count=None) -> str:
+    """The first NAMES_SHOWN of `items` (of `count` in all), then how many more."""
+    count = len(items) if count is None else count
+    shown_items = list(items[:NAMES_SHOWN])
+    more = count - len(shown_items)
+    return ', '.join(shown_items) + (f' and {more} more' if more > 0 else '')
+
+
+def shortened(text: str) -> str:
+    """text, cut to VALUE_SHOWN_CHARACTERS: a refusal never echoes a huge input."""
+    if len(text) <= VALUE_SHOWN_CHARACTERS:
+        return text
+    return text[:VALUE_SHOWN_CHARACTERS - 3] + '...'
+
+
+def shown(value) -> str:
+    """repr(value), shortened."""
+    return shortened(repr(value))
+
+
+def is_number(value) -> bool:
+    """int, float or a numpy number; bool (and numpy's bool) is not a number."""
+    return (isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)))
+
+
+def check_number(name: str, value, low=None, high=None, unit='') -> float:
+    """A finite float within [low, high] (either may be None), or InvalidInput naming `name`."""
+    if not is_number(value):
+        raise InvalidInput(f'{name}: expected a number, got {type(value).__name__} '
+                           f'{shown(value)}')
+    number = float(value)
+    if not math.isfinite(number):
+        raise InvalidInput(f'{name}: must be finite, got {shown(value)}')
+    if (low is not None and number < low) or (high is not None and number > high):
+        raise InvalidInput(f'{name}: must be {range_words(low, high, unit)}, got '
+                           f'{shown(value)}')
+    return number
+
+
+def range_words(low, high, unit='') -> str:
+    unit = f' {unit}' if unit else ''
+    if low is None:
+        return f'<= {high:g}{unit}'
+    if high is None:
+        return f'>= {low:g}{unit}'
+    return f'within [{low:g}, {high:g}]{unit}'
+
+
 def check_positive(name: str, value) -> float:
     """A finite number > 0, or InvalidInput naming `name`."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise InvalidInput(f'{name}: expected a number, got {type(value).__name__} {value!r}')
-    value = float(value)
-    if not math.isfinite(value) or value <= 0.0:
-        raise InvalidInput(f'{name}: must be finite and > 0, got {value!r}')
-    return value
+    number = check_number(name, value)
+    if number <= 0.0:
+        raise InvalidInput(f'{name}: must be > 0, got {shown(value)}')
+    return number
 
 
-def check_vector(name: str, value) -> np.ndarray:
-    """Three finite numbers, or InvalidInput naming `name`."""
-    try:
-        vector = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f'{name}: expected 3 numbers [x, y, z], got {value!r}') from None
-    if vector.shape != (3,) or any(isinstance(v, bool) for v in np.ravel(value)):
-        raise InvalidInput(f'{name}: expected 3 numbers [x, y, z], got {value!r}')
+def check_vector(name: str, value, low=None, high=None, unit='') -> np.ndarray:
+    """Three finite numbers, each within [low, high], or InvalidInput naming `name`."""
+    components = list(value) if isinstance(value, (list, tuple, np.ndarray)) else None
+    if components is None or len(components) != 3 or not all(map(is_number, components)):
+        raise InvalidInput(f'{name}: expected 3 numbers [x, y, z], got {shown(value)}')
+    vector = np.array([float(c) for c in components])
     if not np.all(np.isfinite(vector)):
-        raise InvalidInput(f'{name}: every component must be finite, got {value!r}')
+        raise InvalidInput(f'{name}: every component must be finite, got {shown(value)}')
+    if (low is not None and vector.min() < low) or (high is not None and vector.max() > high):
+        raise InvalidInput(f'{name}: every component must be {range_words(low, high, unit)}, '
+                           f'got {shown(value)}')
     return vector
+
+
+def check_external_force(name: str, force_n) -> np.ndarray:
+    """(3,) N: three finite components, each within +-FORCE_LIMIT_N, or InvalidInput."""
+    return check_vector(name, force_n, -FORCE_LIMIT_N, FORCE_LIMIT_N, 'N')
+
+
+def check_sphere_name(name) -> str:
+    """A sphere name that is one valid ROS name token, or InvalidInput saying why."""
+    if not isinstance(name, str):
+        raise InvalidInput(f'sphere_names: expected strings, got {shown(name)}')
+    if len(name) > NAME_MAX_CHARACTERS:
+        raise InvalidInput(f'sphere_names: {shown(name)} is longer than '
+                           f'{NAME_MAX_CHARACTERS} characters')
+    if not NAME_TOKEN.fullmatch(name) or '__' in name:
+        raise InvalidInput(
+            f'sphere_names: {shown(name)} is not a valid ROS name token (a letter or _, then '
+            "letters, digits and _, no '__')")
+    return name
 
 
 @dataclass
@@ -70,22 +158,22 @@ class Spheres:
         return Spheres(self.names, *(getattr(self, f).copy() for f in _ARRAY_FIELDS))
 
     def lookup(self, name: str) -> int:
-        """Index of the sphere called `name`, or InvalidInput listing the known names."""
+        """Index of the sphere called `name`, or InvalidInput naming a few known names."""
         try:
             return self.index[name]
         except (KeyError, TypeError):
-            raise InvalidInput(
-                f'unknown sphere {name!r}; known spheres: {", ".join(self.names)}') from None
+            raise InvalidInput(f'unknown sphere {shown(name)}; known spheres: '
+                               f'{named_few(self.names)}') from None
 
     def check_mass(self, name: str, mass_kg) -> float:
         """The mass as a float, or InvalidInput; changes nothing."""
         self.lookup(name)
-        return check_positive(f'{name}.mass', mass_kg)
+        return check_number(f'{name}.mass', mass_kg, *MASS_RANGE_KG, 'kg')
 
     def check_radius(self, name: str, radius_m, pool) -> float:
-        """The radius as a float if it is > 0 and fits the pool, or InvalidInput."""
+        """The radius as a float if it is in range and fits the pool, or InvalidInput."""
         self.lookup(name)
-        radius = check_positive(f'{name}.radius', radius_m)
+        radius = check_number(f'{name}.radius', radius_m, *RADIUS_RANGE_M, 'm')
         if 2.0 * radius >= float(np.min(pool.extent)):
             raise InvalidInput(
                 f'{name}.radius: {radius} m does not fit the pool (smallest side '
@@ -107,7 +195,7 @@ class Spheres:
 
     def set_external_force(self, name: str, force_n) -> None:
         i = self.lookup(name)
-        self.external_force[:, i] = check_vector(f'{name} wrench force', force_n)
+        self.external_force[:, i] = check_external_force(f'{name} wrench force', force_n)
 
 
 _ARRAY_FIELDS = ('position', 'velocity', 'mass', 'radius', 'drag_coefficient', 'lift_area',

@@ -18,18 +18,26 @@ from .integrators import INTEGRATORS
 UNCONDITIONALLY_STABLE = frozenset({'linearly_implicit_euler'})
 
 
-def sphere_stiffness(scene):
+def sphere_stiffness(scene, spheres=None, indices=None):
     """(omega_sq (n,) 1/s^2, drag_rate (n,) 1/s) of the linearised spring and damper.
 
+    The spheres are the scene's as it starts, or, given `spheres` (a Spheres), those of
+    `indices` as they are now (after a live change of mass or radius; all when None).
     The reference speed is the fastest of: terminal speed in water, the speed of a fall from
-    the pool's top to the surface, and the initial speed.
+    the pool's top to the surface, and the initial (or current) speed.
     """
-    names = scene.sphere_names
     effects = set(scene['effects'])
-    mass = np.array([scene[f'{n}.mass'] for n in names])
-    radius = np.array([scene[f'{n}.radius'] for n in names])
-    drag_coefficient = np.array([scene[f'{n}.drag_coefficient'] for n in names])
-    initial_speed = np.array([np.linalg.norm(scene[f'{n}.velocity']) for n in names])
+    if spheres is None:
+        names = scene.sphere_names
+        mass = np.array([scene[f'{n}.mass'] for n in names])
+        radius = np.array([scene[f'{n}.radius'] for n in names])
+        drag_coefficient = np.array([scene[f'{n}.drag_coefficient'] for n in names])
+        initial_speed = np.array([np.linalg.norm(scene[f'{n}.velocity']) for n in names])
+    else:
+        chosen = slice(None) if indices is None else np.asarray(indices, dtype=int)
+        mass, radius = spheres.mass[chosen], spheres.radius[chosen]
+        drag_coefficient = spheres.drag_coefficient[chosen]
+        initial_speed = np.linalg.norm(spheres.velocity[:, chosen], axis=0)
     water, air = scene['water.density'], scene['air.density']
     gravity = float(np.linalg.norm(scene['gravity']))
     area, volume = math.pi * radius**2, 4.0 / 3.0 * math.pi * radius**3
@@ -72,14 +80,17 @@ def spectral_radius(integrator, omega_sq, drag_rate, dt):
     return np.max(np.abs(np.linalg.eigvals(matrices)), axis=1)
 
 
-def stable_step_bound(scene, integrator=None):
+def stable_step_bound(scene, integrator=None, spheres=None, indices=None):
     """Largest stable step (s) for the scene's stiffest sphere; inf when there is no bound.
 
+    spheres, indices: as in sphere_stiffness (the bound for some spheres as they are now).
     0.0 means no step is stable (explicit Euler on an undamped spring)."""
     integrator = integrator or scene['integrator']
     if integrator in UNCONDITIONALLY_STABLE or not scene.sphere_names:
         return math.inf
-    omega_sq, drag_rate = sphere_stiffness(scene)
+    omega_sq, drag_rate = sphere_stiffness(scene, spheres, indices)
+    if omega_sq.size == 0:
+        return math.inf
     if not (omega_sq.any() or drag_rate.any()):
         return math.inf
 
