@@ -131,16 +131,25 @@ def _contact(position, velocity, radius, old_position, old_velocity, pool_min, p
         for a in range(3):
             low = pool_min[a] + r
             high = pool_max[a] - r
-            p = position[a, i]
-            below = p < low
-            if below or p > high:
+            p, v = position[a, i], velocity[a, i]
+            below = p < low or (p == low and v < 0.0)
+            if below or p > high or (p == high and v > 0.0):
                 inward = 1.0 if below else -1.0
-                normal_speed = inward * velocity[a, i]
+                face = low if below else high
+                normal_speed = inward * v
                 if normal_speed >= 0.0:
                     bounced = normal_speed
-                else:
-                    bounced = restitution * max(-inward * old_velocity[a, i], 0.0)
-                position[a, i] = low if below else high
+                else:  # contact.impact_speed
+                    approach_start, approach_end = -inward * old_velocity[a, i], -normal_speed
+                    before = max(inward * (old_position[a, i] - face), 0.0)
+                    past = max(inward * (face - p), 0.0)
+                    acceleration = (approach_end - approach_start) / dt
+                    squared = min(approach_start * approach_start + 2.0 * acceleration * before,
+                                  approach_end * approach_end - 2.0 * acceleration * past)
+                    bounced = restitution * math.sqrt(max(squared, 0.0))
+                    if not bounced > approach_end - approach_start:  # resting contact
+                        bounced = 0.0
+                position[a, i] = face
                 velocity[a, i] = inward * bounced
                 if a == 2 and below:
                     floor_impulse = bounced - normal_speed
@@ -175,7 +184,7 @@ if numba is not None:
     _smooth_serial = numba.njit(cache=True, nogil=True, error_model='numpy')(_smooth)
     _smooth_parallel = numba.njit(cache=True, nogil=True, error_model='numpy', parallel=True)(
         _renamed(_smooth, '_smooth_parallel'))
-    _contact_kernel = numba.njit(cache=True, nogil=True)(_contact)
+    _contact_kernel = numba.njit(cache=True, nogil=True, error_model='numpy')(_contact)
 # Below this many spheres launching the parallel loop costs more than vectorising saves.
 # A launch costs ~5 us with the OpenMP or TBB threading layer and ~100 us with numba's own
 # workqueue, the one left where neither library is installed (measured, one thread: at
