@@ -128,20 +128,31 @@ class Dynamics:
         return -(gain_air * (velocity - self.env.air.flow_velocity[:, None])
                  + gain_water * (velocity - self.env.water.flow_velocity[:, None]))
 
-    def vertical_stiffness(self, spheres, position):
-        """(n,) N/m: -dF_z/dz of buoyancy, clipped at 0 so only a restoring spring counts.
+    def vertical_stiffness(self, spheres, position, water_fraction, predicted_z):
+        """(n,) N/m: buoyancy's restoring stiffness -dF_z/dz over a step, clipped at 0.
 
-        Non-zero only while a sphere crosses the surface, where the cap makes buoyancy stiff.
+        The larger of the slope at the step's start and the secant slope from there to
+        predicted_z (m, where z would end without the spring). The slope is non-zero only
+        while a sphere crosses the surface, so a step from fully under (or above) the water
+        that would cross the waterline band would otherwise feel no spring at all.
         """
         if not self.has_buoyancy:
             return None
+        radius, surface_z = spheres.radius, self.env.surface_z
         if self.submerged_volume == 'cap':
-            dvolume_dz = -waterline_area(position[2], spheres.radius, self.env.surface_z)
+            dvolume_dz = -waterline_area(position[2], radius, surface_z)
         else:
-            crossing = np.abs(position[2] - self.env.surface_z) < spheres.radius
-            dvolume_dz = -np.where(crossing, spheres.volume / (2.0 * spheres.radius), 0.0)
-        density_step = self.env.water.density - self.env.air.density
-        return np.maximum(self.env.gravity[2] * density_step * dvolume_dz, 0.0)
+            crossing = np.abs(position[2] - surface_z) < radius
+            dvolume_dz = -np.where(crossing, spheres.volume / (2.0 * radius), 0.0)
+        predicted_z = np.clip(predicted_z, surface_z - radius, surface_z + radius)
+        travel = predicted_z - position[2]
+        secant = np.divide(
+            spheres.volume * (self.fraction_of(predicted_z, radius, surface_z) - water_fraction),
+            travel, out=np.zeros_like(travel), where=travel != 0.0)
+        spring_per_volume_slope = self.env.gravity[2] * (self.env.water.density
+                                                         - self.env.air.density)
+        return np.maximum(np.maximum(spring_per_volume_slope * dvolume_dz,
+                                     spring_per_volume_slope * secant), 0.0)
 
     def acceleration(self, spheres, position, velocity):
         """(3, n) m/s^2 of the smooth forces: what the explicit integrators step."""

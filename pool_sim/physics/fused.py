@@ -104,6 +104,20 @@ def _smooth(position, velocity, mass, radius, volume, cross_section, drag_coeffi
             reach = r * r - offset * offset
             waterline = math.pi * (reach if reach > 0.0 else 0.0)
             stiffness = gz * density_step * -waterline
+            # The secant slope toward where z would end without the spring, within the
+            # waterline band: as Dynamics.vertical_stiffness.
+            predicted_z = z + 0.5 * dt * (vz + pz / vertical)
+            predicted_z = min(max(predicted_z, surface_z - r), surface_z + r)
+            travel = predicted_z - z
+            if travel != 0.0:
+                predicted_depth = surface_z - (predicted_z - r)
+                predicted_depth = 0.0 if predicted_depth < 0.0 else predicted_depth
+                predicted_depth = 2.0 * r if predicted_depth > 2.0 * r else predicted_depth
+                predicted_h = predicted_depth / r
+                predicted_fraction = 0.25 * predicted_h * predicted_h * (3.0 - predicted_h)
+                secant = volume[i] * (predicted_fraction - fraction) / travel
+                secant_stiffness = gz * density_step * secant
+                stiffness = secant_stiffness if secant_stiffness > stiffness else stiffness
             stiffness = stiffness if stiffness > 0.0 else 0.0
             spring = dt * dt * stiffness
             h_squared = spring / m

@@ -48,7 +48,9 @@ def linearly_implicit_euler(dynamics, spheres, position, velocity, dt):
     - quadratic drag as gain * (v_new - flow), the gain taken at the larger of the current
       relative speed and the speed the step will end with (the closed-form root of
       m*s + dt*c*s^2 = |m*v_rel + dt*F|), so a sphere starting from rest is damped too;
-    - the buoyancy spring k at the waterline with a theta-method whose weight w blends from
+    - the buoyancy spring k at the waterline (the larger of its slope at the start and its
+      secant slope to where z would end without it, so a step that would jump the
+      waterline band feels it) with a theta-method whose weight w blends from
       the trapezoidal rule (w = 1/2: no damping, second order) when the spring is resolved
       to backward Euler (w = 1: L-stable) when it is not: w = 1/2 + h^2 / (2*(4 + h^2)),
       h = omega*dt, omega^2 = k/m. Below h = 0.3 it damps the float by < 0.04*omega*h^2
@@ -82,7 +84,10 @@ def linearly_implicit_euler(dynamics, spheres, position, velocity, dt):
             gain = np.maximum(gain, factor * end_speed)  # factor * max(|v_rel|, end speed)
             momentum += dt * gain * flow
             denominator += dt * gain
-    stiffness = dynamics.vertical_stiffness(spheres, position)
+    stiffness = None
+    if dynamics.has_buoyancy:
+        predicted_z = position[2] + 0.5 * dt * (velocity[2] + momentum[2] / denominator[2])
+        stiffness = dynamics.vertical_stiffness(spheres, position, water_fraction, predicted_z)
     weight = 0.5
     if stiffness is not None:
         spring = dt * dt * stiffness  # (omega*dt)^2 * m
