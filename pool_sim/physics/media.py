@@ -77,6 +77,16 @@ def cap_volume_integral(z, radius, surface_z):
     return np.pi * (radius * h**3 - 0.25 * h**4) / 3.0 + volume * under
 
 
+def linear_volume_integral(z, radius, surface_z):
+    """W(z) of the linear approximation (V_sub = V*h/(2r)), m^4: V*h^2/(4r) while crossing,
+    then growing at V once the sphere is under. dW/dz = -V_sub(z), as cap_volume_integral."""
+    full_depth = surface_z - (z - radius)
+    h = np.clip(full_depth, 0.0, 2.0 * radius)
+    under = np.maximum(full_depth - 2.0 * radius, 0.0)
+    volume = 4.0 / 3.0 * np.pi * radius**3
+    return volume * h * h / (4.0 * radius) + volume * under
+
+
 def waterline_area(z, radius, surface_z):
     """Area of the sphere's cross-section at the water surface, m^2 (0 when not crossing it)."""
     offset = z - surface_z

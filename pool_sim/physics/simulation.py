@@ -12,8 +12,10 @@ from . import fused
 from .contact import resolve_contacts
 from .effects import Dynamics
 from .integrators import INTEGRATORS
-from .media import cap_volume_integral
+from .media import cap_volume_integral, linear_volume_integral
 from .spheres import InvalidInput
+
+VOLUME_INTEGRALS = {'cap': cap_volume_integral, 'linear': linear_volume_integral}
 
 
 class Simulation:
@@ -105,11 +107,15 @@ class Simulation:
         the sphere alone, which the fluid's inertia can only take from.
         """
         return mechanical_energy(self.environment, self.spheres, 'buoyancy' in self.scene[
-            'effects'], 'gravity' in self.scene['effects'])
+            'effects'], 'gravity' in self.scene['effects'], self.dynamics.submerged_volume)
 
 
-def mechanical_energy(env, spheres, with_buoyancy=True, with_gravity=True):
-    """(n,) J of each sphere; see Simulation.mechanical_energy."""
+def mechanical_energy(env, spheres, with_buoyancy=True, with_gravity=True,
+                      submerged_volume='cap'):
+    """(n,) J of each sphere; see Simulation.mechanical_energy.
+
+    submerged_volume: 'cap' or 'linear', the model whose buoyancy the potential integrates.
+    """
     kinetic = 0.5 * spheres.mass * np.einsum('ij,ij->j', spheres.velocity, spheres.velocity)
     energy = kinetic
     if with_gravity:
@@ -119,6 +125,6 @@ def mechanical_energy(env, spheres, with_buoyancy=True, with_gravity=True):
         energy = energy + env.gravity[2] * (
             env.air.density * spheres.volume * z
             - (env.water.density - env.air.density)
-            * cap_volume_integral(z, spheres.radius, env.surface_z))
+            * VOLUME_INTEGRALS[submerged_volume](z, spheres.radius, env.surface_z))
     return energy
 
