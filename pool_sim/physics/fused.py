@@ -34,8 +34,11 @@ def supports(scene, submerged_volume):
 
 def _smooth(position, velocity, mass, radius, volume, cross_section, drag_coefficient,
             external_force, gravity, air_density, wind, water_density, current, surface_z, dt,
-            has_gravity, has_buoyancy, has_drag, old_position, old_velocity):
+            has_gravity, has_buoyancy, has_drag, old_position, old_velocity, failed):
     """The smooth part of linearly_implicit_euler, in place; old_* receive the start state.
+
+    A sphere the step would leave non-finite stays where it was, at rest, and is flagged in
+    failed (n,); returns how many were.
 
     Written with scalars and selects, allocation-free: the same arithmetic as the numpy
     pipeline. Compiled twice: as a plain loop, and as a parallel loop (prange) for many
@@ -47,6 +50,7 @@ def _smooth(position, velocity, mass, radius, volume, cross_section, drag_coeffi
     wx, wy, wz = wind[0], wind[1], wind[2]
     cx, cy, cz = current[0], current[1], current[2]
     density_step = water_density - air_density
+    count = 0
     for i in numba.prange(position.shape[1]):
         x, y, z = position[0, i], position[1, i], position[2, i]
         vx, vy, vz = velocity[0, i], velocity[1, i], velocity[2, i]
@@ -125,23 +129,34 @@ def _smooth(position, velocity, mass, radius, volume, cross_section, drag_coeffi
             pz -= weight * (1.0 - weight) * spring * vz
             vertical += weight * weight * spring
         nvx, nvy, nvz = px / horizontal, py / horizontal, pz / vertical
+        nx = x + 0.5 * dt * (vx + nvx)
+        ny = y + 0.5 * dt * (vy + nvy)
+        nz = z + 0.5 * dt * (vz + nvz) + (weight - 0.5) * dt * (nvz - vz)
+        if not (math.isfinite(nx) and math.isfinite(ny) and math.isfinite(nz)
+                and math.isfinite(nvx) and math.isfinite(nvy) and math.isfinite(nvz)):
+            nx, ny, nz, nvx, nvy, nvz = x, y, z, 0.0, 0.0, 0.0
+            failed[i] = 1
+            count += 1
         velocity[0, i], velocity[1, i], velocity[2, i] = nvx, nvy, nvz
-        position[0, i] = x + 0.5 * dt * (vx + nvx)
-        position[1, i] = y + 0.5 * dt * (vy + nvy)
-        position[2, i] = z + 0.5 * dt * (vz + nvz) + (weight - 0.5) * dt * (nvz - vz)
+        position[0, i], position[1, i], position[2, i] = nx, ny, nz
+    return count
 
 
 def _contact(position, velocity, radius, old_position, old_velocity, pool_min, pool_max,
-             contact, dt, has_friction):
+             contact, dt, has_friction, failed):
     """Floor, walls, ceiling and floor friction, in place: as contact.resolve_contacts.
 
     Almost every sphere is inside, so this pass is six comparisons a sphere; the branches
-    are rarely taken and do not hold up the smooth pass.
+    are rarely taken and do not hold up the smooth pass. A sphere contact moved that is not
+    then inside with a finite velocity goes back where it began, at rest, and is flagged
+    in failed (n,) (if the smooth pass had not already); returns how many were.
     """
     restitution, static_friction, kinetic_friction, rolling_friction = contact
+    count = 0
     for i in range(position.shape[1]):
         r = radius[i]
         floor_impulse = 0.0
+        touched = False
         for a in range(3):
             low = pool_min[a] + r
             high = pool_max[a] - r
@@ -165,6 +180,7 @@ def _contact(position, velocity, radius, old_position, old_velocity, pool_min, p
                         bounced = 0.0
                 position[a, i] = face
                 velocity[a, i] = inward * bounced
+                touched = True
                 if a == 2 and below:
                     floor_impulse = bounced - normal_speed
         if has_friction and floor_impulse > 0.0:
@@ -182,6 +198,18 @@ def _contact(position, velocity, radius, old_position, old_velocity, pool_min, p
                 position[1, i] += dt * (velocity[1, i] - ty)
             for a in range(2):
                 position[a, i] = min(max(position[a, i], pool_min[a] + r), pool_max[a] - r)
+        if touched:
+            good = True
+            for a in range(3):
+                good = good and (pool_min[a] + r <= position[a, i] <= pool_max[a] - r
+                                 and math.isfinite(velocity[a, i]))
+            if not good:
+                for a in range(3):
+                    position[a, i], velocity[a, i] = old_position[a, i], 0.0
+                if not failed[i]:
+                    failed[i] = 1
+                    count += 1
+    return count
 
 
 def _renamed(function, name):
@@ -225,28 +253,40 @@ def parallel_from_spheres():
                                      PARALLEL_FROM_SPHERES['workqueue'])
 
 
+_NONE_FAILED = np.empty(0, dtype=np.intp)
+
+
 def step(simulation, dt):
-    """Advance `simulation` (a Simulation the kernel supports) by dt in place."""
+    """Advance `simulation` (a Simulation the kernel supports) by dt in place.
+
+    Returns the indices of the spheres the step guard put back (see Simulation)."""
     global _threading_layer
     env, spheres = simulation.environment, simulation.spheres
     has_gravity, has_buoyancy, has_drag, has_contact, has_friction = simulation.effect_flags
     scratch = simulation.fused_scratch
     if scratch is None or scratch[0].shape != spheres.position.shape:
-        scratch = simulation.fused_scratch = (np.empty_like(spheres.position),
-                                              np.empty_like(spheres.velocity))
-    old_position, old_velocity = scratch
+        scratch = simulation.fused_scratch = (
+            np.empty_like(spheres.position), np.empty_like(spheres.velocity),
+            np.zeros(spheres.position.shape[1], dtype=np.uint8))
+    old_position, old_velocity, failed = scratch
     arguments = (spheres.position, spheres.velocity, spheres.mass, spheres.radius,
                  spheres.volume, spheres.cross_section, spheres.drag_coefficient,
                  spheres.external_force, env.gravity, env.air.density, env.air.flow_velocity,
                  env.water.density, env.water.flow_velocity, env.surface_z, dt, has_gravity,
-                 has_buoyancy, has_drag, old_position, old_velocity)
+                 has_buoyancy, has_drag, old_position, old_velocity, failed)
     if spheres.position.shape[1] >= parallel_from_spheres():
         with _parallel_launch:
-            _smooth_parallel(*arguments)
+            count = _smooth_parallel(*arguments)
             _threading_layer = _threading_layer or numba.threading_layer()
     else:
-        _smooth_serial(*arguments)
+        count = _smooth_serial(*arguments)
     if has_contact:
-        _contact_kernel(spheres.position, spheres.velocity, spheres.radius, old_position,
-                        old_velocity, env.pool.corner_min, env.pool.corner_max,
-                        simulation.contact_tuple, dt, has_friction)
+        count += _contact_kernel(spheres.position, spheres.velocity, spheres.radius,
+                                 old_position, old_velocity, env.pool.corner_min,
+                                 env.pool.corner_max, simulation.contact_tuple, dt,
+                                 has_friction, failed)
+    if not count:
+        return _NONE_FAILED
+    indices = np.flatnonzero(failed)
+    failed[indices] = 0
+    return indices

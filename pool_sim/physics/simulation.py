@@ -14,6 +14,7 @@ from .effects import Dynamics
 from .integrators import INTEGRATORS
 from .media import cap_volume_integral, linear_volume_integral
 from .spheres import InvalidInput
+from .stability import stable_step_bound
 
 VOLUME_INTEGRALS = {'cap': cap_volume_integral, 'linear': linear_volume_integral}
 
@@ -25,6 +26,11 @@ class Simulation:
 
     time: simulated seconds since the start or the last reset.
     max_step: the configured step, s (1 / physics_rate_hz); no step is ever longer.
+    recoveries: spheres the step guard has put back since construction (reset keeps it).
+
+    The step guard is the last line of defence: a sphere a step would leave non-finite (or,
+    with contact, outside the pool) goes back to where that step began, at rest.
+    take_recovered() says which, likely_cause(index) why.
     """
 
     def __init__(self, scene, submerged_volume='cap', initial_spheres=None, backend='auto'):
@@ -45,7 +51,10 @@ class Simulation:
                                f'the exact cap and effects within {sorted(fused.FUSED_EFFECTS)}')
         # 'auto' takes the compiled loop where it computes the same thing, numpy elsewhere.
         self.backend = 'fused' if fusable and backend != 'numpy' else 'numpy'
-        self.fused_scratch = None  # (3, n) start-of-step state, kept between steps
+        self.fused_scratch = None  # start-of-step state and failure flags, kept between steps
+        self.recoveries = 0
+        self._recovered = set()  # indices put back, until taken
+        self._failed_step = {}  # index -> the last step (s) it was put back in
         # The kernel takes ContactParameters as a tuple, in its field order.
         self.contact_tuple = dataclasses.astuple(self.contact_parameters)
         self.effect_flags = tuple(name in scene['effects'] for name in (
@@ -62,19 +71,55 @@ class Simulation:
         """One step of dt seconds (default: max_step)."""
         dt = self.max_step if dt is None else dt
         if self.backend == 'fused':
-            fused.step(self, dt)
+            self._count_recovered(fused.step(self, dt), dt)
             self.time += dt
             return
         spheres = self.spheres
         old_position, old_velocity = spheres.position, spheres.velocity
-        position, velocity = self.integrator(
-            self.dynamics, spheres, old_position, old_velocity, dt)
-        if self.has_contact:
-            resolve_contacts(self.environment.pool, self.contact_parameters, spheres.radius,
-                             old_position, old_velocity, position, velocity, dt,
-                             self.has_friction)
+        with np.errstate(over='ignore', invalid='ignore'):  # the guard below catches those
+            position, velocity = self.integrator(
+                self.dynamics, spheres, old_position, old_velocity, dt)
+            if self.has_contact:
+                resolve_contacts(self.environment.pool, self.contact_parameters,
+                                 spheres.radius, old_position, old_velocity, position,
+                                 velocity, dt, self.has_friction)
+        good = np.isfinite(velocity)
+        if self.has_contact:  # NaN is not inside either
+            pool = self.environment.pool
+            good &= ((position >= pool.corner_min[:, None] + spheres.radius)
+                     & (position <= pool.corner_max[:, None] - spheres.radius))
+        else:
+            good &= np.isfinite(position)
+        failed = np.flatnonzero(~good.all(axis=0))
+        if failed.size:
+            position[:, failed] = old_position[:, failed]
+            velocity[:, failed] = 0.0
+            self._count_recovered(failed, dt)
         spheres.position, spheres.velocity = position, velocity
         self.time += dt
+
+    def _count_recovered(self, indices, dt):
+        for index in indices.tolist():
+            self._recovered.add(index)
+            self._failed_step[index] = dt
+        self.recoveries += len(indices)
+
+    def take_recovered(self):
+        """Indices of the spheres the step guard put back since the last call, ascending."""
+        indices = sorted(self._recovered)
+        self._recovered.clear()
+        return indices
+
+    def likely_cause(self, index):
+        """A short phrase for why the step guard put sphere `index` back."""
+        integrator = self.scene['integrator']
+        step = self._failed_step.get(index, self.max_step)
+        bound = stable_step_bound(self.scene, integrator, self.spheres, [index])
+        if step > bound:
+            return (f'{integrator} is unstable at {step:.3g} s for this sphere (stable below '
+                    f'{bound:.3g} s); use linearly_implicit_euler or a higher physics_rate_hz')
+        return ('forces beyond what float arithmetic can hold: check mass, radius and '
+                'external force')
 
     def advance(self, duration):
         """Advance `duration` s in equal steps, none longer than max_step."""

@@ -1,0 +1,114 @@
+"""The step guard, the last line of defence: a sphere a step would leave non-finite (or,
+with contact, outside the pool) goes back to where the step began, at rest, counted and
+named, and the others step on as if nothing had happened."""
+import numpy as np
+import pytest
+
+from pool_sim.physics import Scene, Simulation
+from pool_sim.physics import fused as fused_module
+from pool_sim.physics import simulation as simulation_module
+from pool_sim.physics.fused import numba
+from pool_sim.physics.stability import stable_step_bound
+
+BACKENDS = ['numpy'] + (['fused'] if numba is not None else [])
+FLOAT_LIMIT = 'forces beyond what float arithmetic can hold'
+
+
+def two_spheres(**keys):
+    """A ping-pong ball (index 0) and a steel ball (index 1) under water."""
+    return Scene({'sphere_names': ['ping', 'steel'],
+                  'ping.mass': 0.0027, 'ping.radius': 0.02, 'ping.position': [0.0, 0.0, -1.0],
+                  'steel.mass': 7850.0 * 4.0 / 3.0 * np.pi * 0.1**3, 'steel.radius': 0.1,
+                  'steel.position': [1.0, 0.0, -1.0], **keys})
+
+
+def assert_finite_and_inside(sim):
+    pool, radius = sim.environment.pool, sim.spheres.radius
+    assert np.all(np.isfinite(sim.spheres.position)) and np.all(np.isfinite(sim.spheres.velocity))
+    assert np.all(sim.spheres.position >= pool.corner_min[:, None] + radius)
+    assert np.all(sim.spheres.position <= pool.corner_max[:, None] - radius)
+
+
+def test_rk4_far_beyond_its_stable_step_puts_the_light_sphere_back_and_names_the_cause():
+    # RK4 holds the ping-pong ball only below 1.44 ms: at 1/30 s its drag blows up, again
+    # and again. The steel ball is stable at this step and must not notice.
+    scene = two_spheres(integrator='rk4', physics_rate_hz=30.0)
+    sim = Simulation(scene)
+    recovered = set()
+    for _ in range(300):
+        sim.step()
+        assert_finite_and_inside(sim)
+        recovered.update(sim.take_recovered())
+    assert recovered == {0}
+    assert sim.recoveries >= 5
+    bound = stable_step_bound(scene, spheres=sim.spheres, indices=[0])
+    assert sim.likely_cause(0) == (
+        f'rk4 is unstable at 0.0333 s for this sphere (stable below {bound:.3g} s); use '
+        'linearly_implicit_euler or a higher physics_rate_hz')
+    assert sim.spheres.position[2, 1] == pytest.approx(-3.9)  # steel: on the floor, as ever
+
+
+@pytest.mark.parametrize('backend', BACKENDS)
+def test_a_force_beyond_float_arithmetic_leaves_that_sphere_at_rest_where_it_was(backend):
+    sim = Simulation(two_spheres(), backend=backend)
+    unforced = Simulation(two_spheres(), backend=backend)
+    sim.spheres.external_force[2, 0] = 1e300  # past every setter's check, set directly
+    for step in range(1, 11):
+        sim.step()
+        unforced.step()
+        assert_finite_and_inside(sim)
+        assert sim.take_recovered() == [0]
+        assert sim.recoveries == step
+        assert np.array_equal(sim.spheres.position[:, 0], [0.0, 0.0, -1.0])
+        assert np.all(sim.spheres.velocity[:, 0] == 0.0)
+        # The other sphere steps exactly as it would alone.
+        assert np.array_equal(sim.spheres.position[:, 1], unforced.spheres.position[:, 1])
+        assert np.array_equal(sim.spheres.velocity[:, 1], unforced.spheres.velocity[:, 1])
+    assert sim.likely_cause(0) == (
+        f'{FLOAT_LIMIT}: check mass, radius and external force')
+    assert sim.take_recovered() == []  # taken: cleared until the next one
+    sim.reset()
+    assert sim.recoveries == 10  # the count outlives a reset
+
+
+@pytest.mark.parametrize('backend', BACKENDS)
+def test_a_bounce_that_overflows_is_caught_after_contact(backend):
+    # Without drag nothing overflows before the floor; the bounce's v^2 then does.
+    scene = two_spheres(effects=['gravity', 'buoyancy', 'contact', 'friction'])
+    sim = Simulation(scene, backend=backend)
+    sim.spheres.velocity[2, 0] = -1e200
+    sim.step()
+    assert_finite_and_inside(sim)
+    assert sim.take_recovered() == [0] and sim.recoveries == 1
+    assert np.array_equal(sim.spheres.position[:, 0], [0.0, 0.0, -1.0])
+    assert np.all(sim.spheres.velocity[:, 0] == 0.0)
+
+
+def test_a_sphere_a_step_leaves_outside_the_pool_is_put_back(monkeypatch):
+    # Contact never leaves a finite sphere outside; the guard checks it all the same.
+    monkeypatch.setattr(simulation_module, 'resolve_contacts', lambda *arguments: None)
+    sim = Simulation(two_spheres(), backend='numpy')
+    sim.spheres.position[2, 1] = -3.9 + 1e-3
+    sim.spheres.velocity[2, 1] = -1.0
+    sim.step()
+    assert sim.take_recovered() == [1]
+    assert np.array_equal(sim.spheres.position[:, 1], [1.0, 0.0, -3.9 + 1e-3])
+    assert np.all(sim.spheres.velocity[:, 1] == 0.0)
+
+
+@pytest.mark.skipif(numba is None, reason='numba is not installed')
+@pytest.mark.parametrize('count', [32, 192])  # the plain build and the parallel one
+def test_the_fused_kernel_counts_and_flags_every_failed_sphere(count, monkeypatch):
+    monkeypatch.setattr(fused_module, 'parallel_from_spheres', lambda: 64)
+    names = [f's{i}' for i in range(count)]
+    params = {'sphere_names': names}
+    for i, name in enumerate(names):
+        params[f'{name}.position'] = [-3.0 + 6.0 * i / count, 0.0, -1.0]
+    sim = Simulation(Scene(params), backend='fused')
+    failing = list(range(3, count, 7))
+    sim.spheres.external_force[2, failing] = 1e300
+    for step in range(1, 4):
+        sim.step()
+        assert_finite_and_inside(sim)
+        assert sim.take_recovered() == failing
+        assert sim.recoveries == step * len(failing)
