@@ -3,71 +3,335 @@
 Reads `pool_sim/<sphere>/odom`, publishes `pool_sim/<sphere>/wrench` (names relative to this
 node's namespace, so remap them like any topic). A PD law on the height error, with an
 optional integral term (ki, default 0) that removes the offset a net weight or buoyancy
-leaves: with PD alone the sphere settles (net force) / kp away from the target.
+leaves: with PD alone the sphere settles (net force) / kp away from the target. The integral
+term (ki times the integrated error) is kept within max_force, so it cannot wind up.
+
+Every parameter is checked the same way at start-up and on `ros2 param set`: numbers may be
+given as integers, a wrong type or a value out of its range is refused naming the key and
+what is allowed (at start-up the node stops with exit code 1). Setting `sphere` while running
+lets go of the old sphere (one zero wrench) and holds the new one.
 """
 import math
+import re
 import sys
+import time
 
 from geometry_msgs.msg import Wrench
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import ParameterDescriptor
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 import rclpy
+from rclpy.clock import Clock, ClockType
+from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.utilities import get_default_context
+
+try:  # the entry points' signal handling: it raises Stop on SIGINT and SIGTERM
+    from pool_sim.ros.executables import Stop
+except ImportError:  # not there: then only rclpy's handling, and Stop is never raised
+    class Stop(BaseException):
+        pass
+
+GAIN_MAX = 1e9
+FORCE_MAX_N = 1e9
+HEIGHT_MAX_M = 1e4
+NAME_MAX = 100
+NAME_TOKEN = re.compile(r'[A-Za-z_][A-Za-z0-9_]*')
+NAME_RULE = (f"a ROS name token: a letter or '_', then letters, digits or '_', no '__', "
+             f'at most {NAME_MAX} characters')
+# Each term of the law is clipped to this before they are added, so their sum cannot overflow
+# (inf - inf = NaN) even for absurd odometry; no physical input comes near it.
+TERM_LIMIT = 1e300
+
+
+class InvalidParameter(ValueError):
+    """A parameter value the keeper refuses; the message names the key and what is allowed."""
+
+
+class Number:
+    """A numeric parameter: a finite float in [low, high] (or (low, high] when low_open)."""
+
+    def __init__(self, default, low, high, unit, description, low_open=False):
+        self.default, self.low, self.high, self.unit = default, low, high, unit
+        self.description, self.low_open = description, low_open
+
+    def allowed(self):
+        low, high = _number(self.low), _number(self.high)
+        if self.low_open:
+            return f'a number > {low} and <= {high} {self.unit}'
+        return f'a number from {low} to {high} {self.unit}'
+
+    def check(self, name, value):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise InvalidParameter(f'{name}: expected {self.allowed()}, got {_shown(value)}')
+        try:
+            number = float(value)
+        except OverflowError:  # an int beyond any float
+            number = math.copysign(math.inf, value)
+        too_low = number <= self.low if self.low_open else number < self.low
+        if not math.isfinite(number) or too_low or number > self.high:
+            raise InvalidParameter(f'{name}: must be {self.allowed()}, got {value!r}')
+        return number
+
+    def descriptor(self):
+        return ParameterDescriptor(
+            description=f'{self.description} ({self.allowed()}; an integer is fine)',
+            additional_constraints=self.allowed(), dynamic_typing=True,
+            floating_point_range=[FloatingPointRange(
+                from_value=self.low, to_value=self.high, step=0.0)])
+
+
+class Name:
+    """A string parameter that must be one ROS name token (a sphere's name)."""
+
+    def __init__(self, default, description):
+        self.default, self.description = default, description
+
+    def check(self, name, value):
+        if not isinstance(value, str):
+            raise InvalidParameter(f'{name}: expected {NAME_RULE}, got {_shown(value)}')
+        if (not NAME_TOKEN.fullmatch(value) or '__' in value or len(value) > NAME_MAX):
+            shown = value if len(value) <= 40 else f'{value[:40]}... ({len(value)} characters)'
+            raise InvalidParameter(f'{name}: must be {NAME_RULE}, got {shown!r}')
+        return value
+
+    def descriptor(self):
+        return ParameterDescriptor(description=self.description,
+                                   additional_constraints=NAME_RULE, dynamic_typing=True)
+
 
 PARAMETERS = {
-    'sphere': ('ice', 'name of the sphere to hold'),
-    'target_depth': (1.0, 'depth of the sphere centre below surface_z, m'),
-    'surface_z': (0.0, 'height of the water surface, m'),
-    'kp': (600.0, 'proportional gain, N/m'),
-    'kd': (150.0, 'derivative gain on the vertical velocity, N*s/m'),
-    'ki': (0.0, 'integral gain, N/(m*s); 0 = pure PD'),
-    'max_force': (2000.0, 'largest force it will publish, N'),
+    'sphere': Name('ice', "name of the sphere to hold, one of pool_sim's sphere_names"),
+    'target_depth': Number(1.0, -HEIGHT_MAX_M, HEIGHT_MAX_M, 'm',
+                           'depth of the sphere centre below surface_z, m'),
+    'surface_z': Number(0.0, -HEIGHT_MAX_M, HEIGHT_MAX_M, 'm',
+                        'height of the water surface, m'),
+    'kp': Number(600.0, 0.0, GAIN_MAX, 'N/m', 'proportional gain, N/m'),
+    'kd': Number(150.0, 0.0, GAIN_MAX, 'N*s/m', 'derivative gain on the vertical velocity'),
+    'ki': Number(0.0, 0.0, GAIN_MAX, 'N/(m*s)', 'integral gain; 0 = pure PD'),
+    'max_force': Number(2000.0, 0.0, FORCE_MAX_N, 'N', 'largest force it will publish',
+                        low_open=True),
 }
 
 
+def check_parameter(name, value):
+    """The value the keeper uses (numbers as floats); InvalidParameter if it is refused."""
+    return PARAMETERS[name].check(name, value)
+
+
+def _number(value):
+    return f'{value:g}'.replace('e+0', 'e').replace('e+', 'e')
+
+
+def _shown(value):
+    if value is None:
+        return 'no value'
+    if isinstance(value, bool):
+        return f'{str(value).lower()} (a bool)'
+    if isinstance(value, str):
+        return f'{value!r} (a string)'
+    if isinstance(value, (list, tuple)) or hasattr(value, 'tolist'):
+        return f'{list(value)!r} (an array)'
+    return repr(value)
+
+
+def _finite(odometry):
+    pose, twist = odometry.pose.pose, odometry.twist.twist
+    return all(math.isfinite(v) for vector in (pose.position, pose.orientation, twist.linear,
+                                               twist.angular)
+               for v in (vector.x, vector.y, vector.z, getattr(vector, 'w', 0.0)))
+
+
+def _clip(value, limit):
+    return max(-limit, min(limit, value))
+
+
 class DepthKeeper(Node):
+    """odometry_timeout_s: wall seconds without odometry before it warns (throttled to one
+    warning per that many seconds)."""
 
-    def __init__(self, **node_kwargs):
+    def __init__(self, odometry_timeout_s=5.0, **node_kwargs):
         super().__init__('depth_keeper', **node_kwargs)
-        for name, (default, description) in PARAMETERS.items():
-            self.declare_parameter(name, default, ParameterDescriptor(description=description))
-        sphere = self.get_parameter('sphere').value
-        self.integral = 0.0
-        self.last_stamp = None
-        self.publisher = self.create_publisher(Wrench, f'pool_sim/{sphere}/wrench', 10)
-        self.create_subscription(Odometry, f'pool_sim/{sphere}/odom', self._on_odometry, 10)
-        self.get_logger().info(
-            f'holding {sphere} at {self.get_parameter("target_depth").value} m depth')
+        try:
+            self.settings = self._declare()
+        except BaseException:
+            self.destroy_node()
+            raise
+        self.add_pre_set_parameters_callback(self._as_floats)
+        self.add_on_set_parameters_callback(self._check_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+        self.odometry_timeout_s = odometry_timeout_s
+        self.publisher = self.subscription = None
+        self._wire(self.settings['sphere'])
+        # Wall time, so it also warns under use_sim_time with no /clock.
+        self.create_timer(min(0.5, odometry_timeout_s / 5), self._check_odometry_arrives,
+                          clock=Clock(clock_type=ClockType.STEADY_TIME))
 
-    def _on_odometry(self, odometry):
-        p = {name: self.get_parameter(name).value for name in PARAMETERS}
-        target_z = p['surface_z'] - p['target_depth']
-        error = target_z - odometry.pose.pose.position.z
+    def _declare(self):
+        """Declare every parameter, check the values the overrides gave, then attach ranges.
+
+        Declared first without ranges, so that rclpy's own range check does not refuse a
+        value before ours can name the key and what is allowed."""
+        declared = self.declare_parameters('', [
+            (name, spec.default, ParameterDescriptor(dynamic_typing=True))
+            for name, spec in PARAMETERS.items()])
+        settings = {p.name: check_parameter(p.name, p.value) for p in declared}
+        self.set_parameters([Parameter(name, value=value) for name, value in settings.items()])
+        for name, spec in PARAMETERS.items():
+            self.set_descriptor(name, spec.descriptor())
+        return settings
+
+    # `ros2 param set`: the same checks as at start-up.
+
+    def _as_floats(self, parameters):
+        """Integers for numeric parameters become floats, so each keeps one type."""
+        converted = []
+        for parameter in parameters:
+            if (isinstance(PARAMETERS.get(parameter.name), Number)
+                    and parameter.type_ == Parameter.Type.INTEGER):
+                try:
+                    parameter = Parameter(parameter.name, value=float(parameter.value))
+                except OverflowError:
+                    pass  # left for the check to refuse
+            converted.append(parameter)
+        return converted
+
+    def _check_parameters(self, parameters):
+        for parameter in parameters:
+            if parameter.name not in PARAMETERS:
+                continue
+            try:
+                check_parameter(parameter.name, parameter.value)
+            except InvalidParameter as error:
+                # rclpy has already set each dynamically typed descriptor's type to the new
+                # value's; the value stays, so its type does too.
+                for other in parameters:
+                    if other.name in PARAMETERS:
+                        self.describe_parameter(other.name).type = (
+                            self.get_parameter(other.name).type_.value)
+                return SetParametersResult(successful=False, reason=str(error))
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, parameters):
+        sphere = self.settings['sphere']
+        for parameter in parameters:
+            if parameter.name in PARAMETERS:
+                self.settings[parameter.name] = check_parameter(parameter.name, parameter.value)
+        if self.settings['sphere'] != sphere:
+            self._wire(self.settings['sphere'])
+
+    def _wire(self, sphere):
+        """Subscribe to the sphere's odometry, publish its wrench; let go of the previous one."""
+        if self.publisher is not None:
+            # Or the old sphere keeps our last force until pool_sim's wrench_timeout (0 = for
+            # ever); given a moment to arrive before the publisher goes.
+            self.publisher.publish(Wrench())
+            self.publisher.wait_for_all_acked(Duration(seconds=0.2))
+            self.destroy_publisher(self.publisher)
+            self.destroy_subscription(self.subscription)
+        self.integral_force = 0.0  # ki * integral of the error, N
+        self.last_stamp = None
+        self.heard_since_wired = False
+        self.last_heard = time.monotonic()
+        self.next_warning = 0.0
+        self.publisher = self.create_publisher(Wrench, f'pool_sim/{sphere}/wrench', 10)
+        self.subscription = self.create_subscription(
+            Odometry, f'pool_sim/{sphere}/odom', self._on_odometry, 10)
+        self.get_logger().info(
+            f'holding {sphere} at {_number(self.settings["target_depth"])} m depth')
+
+    def _check_odometry_arrives(self):
+        now = time.monotonic()
+        quiet = now - self.last_heard
+        if quiet < self.odometry_timeout_s or now < self.next_warning:
+            return
+        self.next_warning = now + self.odometry_timeout_s
+        topic, sphere = self.subscription.topic_name, self.settings['sphere']
+        if self.heard_since_wired:
+            self.get_logger().warning(
+                f'no odometry on {topic} for {quiet:.1f} s: has pool_sim stopped?')
+        else:
+            self.get_logger().warning(
+                f"no odometry on {topic} after {quiet:.1f} s: is '{sphere}' one of "
+                "pool_sim's sphere_names?")
+
+    # The control law.
+
+    def force_for(self, odometry):
+        """The vertical force (N) for this odometry, or None when it is not finite."""
+        if not _finite(odometry):
+            return None
+        p = self.settings
+        limit = p['max_force']
+        error = p['surface_z'] - p['target_depth'] - odometry.pose.pose.position.z
         stamp = odometry.header.stamp.sec + 1e-9 * odometry.header.stamp.nanosec
         if self.last_stamp is not None and stamp > self.last_stamp:
-            self.integral += error * (stamp - self.last_stamp)
+            # ki first: with ki = 0 the increment is 0 even if error * dt overflows. Kept
+            # within the force limit (anti-windup), so it cannot grow past use or to inf.
+            increment = p['ki'] * error * (stamp - self.last_stamp)
+            self.integral_force = _clip(self.integral_force + increment, limit)
         self.last_stamp = stamp
-        force = p['kp'] * error - p['kd'] * odometry.twist.twist.linear.z + p['ki'] * self.integral
-        limit = p['max_force']
+        force = (_clip(p['kp'] * error, TERM_LIMIT)
+                 - _clip(p['kd'] * odometry.twist.twist.linear.z, TERM_LIMIT)
+                 + self.integral_force)
+        return _clip(force, limit)
+
+    def _on_odometry(self, odometry):
+        self.last_heard, self.heard_since_wired = time.monotonic(), True
+        force = self.force_for(odometry)
+        if force is None:
+            self.get_logger().warning(
+                f'{self.subscription.topic_name}: odometry with a value that is not finite; '
+                'no force published for it', throttle_duration_sec=5.0)
+            return
         wrench = Wrench()
-        wrench.force.z = math.copysign(min(abs(force), limit), force)
+        wrench.force.z = force
         self.publisher.publish(wrench)
 
 
+def quiet_once_shut_down(previous_hook, context):
+    """A sys.unraisablehook that passes to previous_hook only while the context is up.
+
+    A signal shuts the context down under whatever rclpy was building (an executor in spin,
+    its guard conditions, the node): the half-built object's __del__ then fails, and Python
+    prints 'Exception ignored in ...' with a traceback. After the shutdown that is noise."""
+    def hook(unraisable):
+        if context.ok():
+            previous_hook(unraisable)
+    return hook
+
+
 def main(args=None):
-    rclpy.init(args=args)
-    node = None
+    """`ros2 run pool_sim depth_keeper [--ros-args ...]`; exit code 1 for a bad parameter.
+
+    SIGINT or SIGTERM at any moment of main() exit cleanly with 0: rclpy's handlers shut the
+    context down, which ends spin or makes whatever call was running raise; started through
+    pool_sim.ros.executables, that module's Stop may come instead."""
+    node, code, started = None, 0, False
     try:
-        node = DepthKeeper()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
+        try:
+            rclpy.init(args=args)
+            started = True
+            sys.unraisablehook = quiet_once_shut_down(sys.unraisablehook,
+                                                      get_default_context())
+            node = DepthKeeper()
+            rclpy.spin(node)
+        except (Stop, KeyboardInterrupt, ExternalShutdownException):
+            pass
+        except InvalidParameter as error:
+            rclpy.logging.get_logger('depth_keeper').fatal(f'refusing to start: {error}')
+            code = 1
+        except Exception:
+            if not started or rclpy.ok():
+                raise  # not a signal: a real fault, shown in full
+        finally:
+            if node is not None:
+                node.destroy_node()
+            rclpy.try_shutdown()
+    except (Stop, KeyboardInterrupt):  # a signal while cleaning up
         pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return code
 
 
 if __name__ == '__main__':
