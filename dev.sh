@@ -28,7 +28,7 @@ case "${1:-}" in
   run)
     setup
     shift
-    exec "$venv/bin/python" -m pool_sim.ros.simulator_node "$@"
+    exec "$venv/bin/python" -m pool_sim "$@"
     ;;
   test)
     setup

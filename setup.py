@@ -22,8 +22,9 @@ setup(
     tests_require=['pytest'],
     entry_points={
         'console_scripts': [
-            'pool_sim = pool_sim.ros.simulator_node:main',
-            'depth_keeper = pool_sim.ros.depth_keeper:main',
+            # Through executables.py, which takes SIGINT and SIGTERM before any heavy import.
+            'pool_sim = pool_sim.ros.executables:pool_sim',
+            'depth_keeper = pool_sim.ros.executables:depth_keeper',
         ],
     },
 )

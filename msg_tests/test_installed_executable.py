@@ -106,5 +106,5 @@ def test_installed_node_with_a_bad_params_file_exits_non_zero_naming_the_key(wor
          '--params-file', str(params)],
         env=workspace, capture_output=True, text=True, timeout=30)
     assert result.returncode != 0
-    assert 'buoy.mass: must be > 0' in result.stdout + result.stderr
+    assert 'buoy.mass: must be within' in result.stdout + result.stderr
     assert 'Traceback' not in result.stdout + result.stderr

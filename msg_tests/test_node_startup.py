@@ -23,7 +23,8 @@ def test_without_a_params_file_it_runs_the_seeds_pool_with_every_key_declared():
 @pytest.mark.parametrize('params, message', [
     ({'cork.colour': 'red'}, 'cork.colour: unknown key'),
     ({'cork.mass': 'heavy'}, 'cork.mass: expected a number'),
-    ({'physics_rate_hz': -5.0}, 'physics_rate_hz: must be > 0'),
+    ({'physics_rate_hz': -5.0}, r'physics_rate_hz: must be within \[1, 100000\] Hz'),
+    ({'sphere_names': []}, 'sphere_names: the node needs at least one sphere'),
     ({'sphere_names': ['a'], 'cork.mass': 1.0}, 'cork.mass: unknown key'),
     ({'integrator': 'magic'}, 'integrator: must be one of'),
 ])

@@ -16,6 +16,10 @@ from visualization_msgs.msg import Marker, MarkerArray
 from pool_sim.ros.serialized import PatchedMessage
 
 
+# builtin_interfaces/Time holds seconds in an int32: the last simulated second it can carry.
+LAST_STAMP_S = 2**31 - 1
+
+
 def stamp_of(seconds: float) -> Time:
     nanoseconds = int(round(seconds * 1e9))
     return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)

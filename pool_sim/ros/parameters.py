@@ -5,9 +5,10 @@ Scene validation the core uses, so a wrong key, type or value stops the node wit
 name. Every key is declared with dynamic typing so that `ros2 param set ... 9` (an integer)
 reaches our checks instead of rclpy's type lock.
 """
-from rcl_interfaces.msg import ParameterDescriptor
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 
-from pool_sim.physics.scene import GLOBAL_KEYS, Scene, SPHERE_KEYS
+from pool_sim.physics.scene import GLOBAL_KEYS, InvalidInput, Scene, SPHERE_KEYS
+from pool_sim.physics.spheres import range_words
 
 # Parameters rclpy itself declares or reads; they are not part of the scene.
 ROS_OWN_PARAMETERS = ('use_sim_time', 'start_type_description_service')
@@ -23,6 +24,8 @@ def scene_from_overrides(overrides: dict, default: Scene) -> Scene:
     overrides = {name: value for name, value in overrides.items()
                  if name not in ROS_OWN_PARAMETERS and not name.startswith('qos_overrides.')}
     names = overrides.get('sphere_names', default.sphere_names)
+    if names is None:  # an empty YAML list arrives as a parameter that is not set
+        raise InvalidInput('sphere_names: the node needs at least one sphere, got []')
     # A wrong type is left for Scene to refuse, naming the key.
     names = tuple(names) if isinstance(names, (list, tuple)) else ()
     params = {key: default[key] for key in GLOBAL_KEYS}
@@ -36,8 +39,18 @@ def scene_from_overrides(overrides: dict, default: Scene) -> Scene:
 
 
 def describe(name: str) -> ParameterDescriptor:
+    """Description, unit and range, as `ros2 param describe` shows them. The range is a
+    FloatingPointRange for numbers and for each component of a vector (rclpy enforces it
+    on doubles only; the scene's own checks enforce every range)."""
     key = GLOBAL_KEYS.get(name) or SPHERE_KEYS[name.rsplit('.', 1)[1]]
-    return ParameterDescriptor(description=key.description, dynamic_typing=True)
+    descriptor = ParameterDescriptor(description=key.description, dynamic_typing=True)
+    if key.low is not None and key.high is not None:
+        descriptor.floating_point_range = [
+            FloatingPointRange(from_value=float(key.low), to_value=float(key.high), step=0.0)]
+        scope = 'each component ' if key.kind == 'vector' else ''
+        descriptor.additional_constraints = (
+            f'{scope}{range_words(key.low, key.high, key.unit)}')
+    return descriptor
 
 
 def declare_scene(node, scene: Scene) -> None:
@@ -64,3 +77,16 @@ def overrides_of(node) -> dict:
     # rclpy keeps them here; there is no public accessor in Jazzy.
     return {name: parameter.value
             for name, parameter in getattr(node, '_parameter_overrides', {}).items()}
+
+
+def params_files(argv) -> list:
+    """The paths given to --params-file in the --ros-args parts of a command line."""
+    paths, in_ros_args = [], False
+    for i, token in enumerate(argv):
+        if token == '--ros-args':
+            in_ros_args = True
+        elif token == '--':
+            in_ros_args = False
+        elif in_ros_args and token == '--params-file' and i + 1 < len(argv):
+            paths.append(argv[i + 1])
+    return paths

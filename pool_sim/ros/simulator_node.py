@@ -15,7 +15,7 @@ import numpy as np
 from geometry_msgs.msg import PoseArray, Wrench
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import SetParametersResult
-from rcl_interfaces.srv import SetParameters
+from rcl_interfaces.srv import SetParameters, SetParametersAtomically
 import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
@@ -23,31 +23,36 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock as ClockMessage
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
 from pool_sim.physics import fused, InvalidInput, Scene, Simulation
+from pool_sim.physics.scene import read_params_document
+from pool_sim.physics.spheres import named_few, shortened, shown
 from pool_sim.physics.stability import stable_step_bound
-from pool_sim.ros.messages import scene_markers, SphereMessages, stamp_of
-from pool_sim.ros.parameters import (declare_scene, live_key, overrides_of,
+from pool_sim.ros.executables import exit_on_signal, Stop, take_signals
+from pool_sim.ros.messages import LAST_STAMP_S, scene_markers, SphereMessages, stamp_of
+from pool_sim.ros.parameters import (declare_scene, live_key, overrides_of, params_files,
                                      ROS_OWN_PARAMETERS, scene_from_overrides)
 
-# Wall time one tick may spend stepping at real_time_factor 0, so services stay responsive.
-FAST_TICK_BUDGET_S = 0.02
+# Wall time one tick may spend stepping, in every mode, so services stay responsive.
+TICK_BUDGET_S = 0.02
+# Wall seconds between ticks: never longer, so a slow publish rate or a small
+# real_time_factor does not owe more than the catch-up bound at once; never shorter, so a
+# huge real_time_factor does not spin the timer for nothing.
+TICK_PERIOD_RANGE_S = (0.001, 0.05)
+# Requests a service queues before DDS drops one: many clients at once must all be answered.
+SERVICE_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 # Wall time the node may fall behind and still catch up (then it drops the backlog).
 MAX_BACKLOG_WALL_S = 0.1
 # Wall seconds between the status lines in the log, and how many spheres they name.
 STATUS_PERIOD_S = 5.0
 STATUS_SPHERES = 4
-
-
-def named_few(items, count=None):
-    """The first STATUS_SPHERES of `items` (of `count` in all), then how many more: a log
-    line stays a line with thousands of spheres."""
-    count = len(items) if count is None else count
-    more = count - STATUS_SPHERES
-    return ', '.join(items[:STATUS_SPHERES]) + (f' and {more} more' if more > 0 else '')
+# Wall seconds between two error lines of the same kind (a step guard, a refused input).
+THROTTLE_S = 1.0
+KNOWN_PARAMETER_TYPES = frozenset(t.value for t in Parameter.Type)
 
 
 class PoolSimNode(Node):
@@ -55,7 +60,15 @@ class PoolSimNode(Node):
 
     def __init__(self, node_name='pool_sim', default_scene=None, **node_kwargs):
         super().__init__(node_name, **node_kwargs)
-        default_scene = default_scene or Scene.default()
+        try:
+            self._build(default_scene or Scene.default())
+        except BaseException:
+            # Refused, or stopped by a signal half-way: nothing of it may outlive it (a
+            # wrench thread left spinning aborts the process at exit).
+            self.destroy_node()
+            raise
+
+    def _build(self, default_scene):
         self.scene = scene_from_overrides(overrides_of(self), default_scene)
         declare_scene(self, self.scene)
         self.simulation = Simulation(self.scene)
@@ -88,13 +101,15 @@ class PoolSimNode(Node):
         # Latest wrench per sphere, filled by the WrenchInputs thread, emptied by each tick.
         self.pending_wrenches = {}
         self.wrench_inputs = WrenchInputs(self, names, self.pending_wrenches_put)
-        self.create_service(SetParameters, '~/set_mass', partial(self._on_set_sphere, 'mass'))
+        self.create_service(SetParameters, '~/set_mass', partial(self._on_set_sphere, 'mass'),
+                            qos_profile=SERVICE_QOS)
         self.create_service(SetParameters, '~/set_radius',
-                            partial(self._on_set_sphere, 'radius'))
-        self.create_service(Trigger, '~/reset', self._on_reset)
-        self.create_service(SetBool, '~/pause', self._on_pause)
+                            partial(self._on_set_sphere, 'radius'), qos_profile=SERVICE_QOS)
+        self.create_service(Trigger, '~/reset', self._on_reset, qos_profile=SERVICE_QOS)
+        self.create_service(SetBool, '~/pause', self._on_pause, qos_profile=SERVICE_QOS)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
+        guard_services(self)
 
         self._torque_warned = set()
         # Wall seconds spent in each part, for the status line and the benchmarks.
@@ -104,6 +119,8 @@ class PoolSimNode(Node):
         self.publishes, self.steps_taken, self.simulated_s = 0, 0, 0.0
         # Simulated seconds the catch-up bound let go when the node fell behind.
         self.given_up_s = 0.0
+        # True once simulated time reached the last second a ROS stamp holds (then paused).
+        self.stamp_limit_reached = False
         self.started_wall = time.monotonic()  # both set again once set-up is done
         self.next_status_wall = self.started_wall + STATUS_PERIOD_S
         self.scene_marker_publisher.publish(scene_markers(
@@ -114,7 +131,8 @@ class PoolSimNode(Node):
         # executor a walk over every subscription (one per sphere), so at 1 000 spheres
         # waking per step left it 85 % of the time. The steps inside stay a fixed dt.
         tick_period = (max(self.simulation.max_step, self.publish_period)
-                       / self.real_time_factor if self.real_time_factor > 0 else 0.001)
+                       / self.real_time_factor if self.real_time_factor > 0 else 0.0)
+        tick_period = min(max(tick_period, TICK_PERIOD_RANGE_S[0]), TICK_PERIOD_RANGE_S[1])
         self.timer = self.create_timer(tick_period, self._on_tick,
                                        clock=Clock(clock_type=ClockType.STEADY_TIME))
         self._warn_if_unstable()
@@ -129,12 +147,20 @@ class PoolSimNode(Node):
         self.last_wall = self.started_wall = time.monotonic()
         self.next_status_wall = self.started_wall + STATUS_PERIOD_S
 
-    def _warn_if_unstable(self):
-        bound = stable_step_bound(self.scene)
+    def _warn_if_unstable(self, indices=None):
+        """Warn when the integrator is unstable at the configured rate for the scene's
+        stiffest sphere (at start-up) or for the spheres `indices` just changed."""
+        if indices is None:
+            bound, what = stable_step_bound(self.scene), 'this scene: its stiffest sphere'
+        else:
+            bound = stable_step_bound(self.scene, spheres=self.simulation.spheres,
+                                      indices=indices)
+            names = named_few([self.simulation.spheres.names[i] for i in indices])
+            what = f'{names} as changed: it'
         if self.simulation.max_step > bound:
             self.get_logger().warning(
                 f'{self.scene["integrator"]} is unstable at {self.scene["physics_rate_hz"]:g} Hz '
-                f'for this scene: its stiffest sphere needs a step under {bound * 1e3:.3g} ms '
+                f'for {what} needs a step under {bound * 1e3:.3g} ms '
                 f'({1.0 / bound if bound > 0 else math.inf:.4g} Hz or more); '
                 'linearly_implicit_euler is stable at any rate')
 
@@ -155,25 +181,36 @@ class PoolSimNode(Node):
             return
         dt = self.simulation.max_step
         stepped = False
+        deadline = now + TICK_BUDGET_S
         if self.real_time_factor > 0:
             limit = max(2.0 * dt, MAX_BACKLOG_WALL_S * self.real_time_factor)
             owed = self.backlog_s + elapsed * self.real_time_factor
             self.backlog_s = min(owed, limit)
             self.given_up_s += owed - self.backlog_s
-            while self.backlog_s >= dt * (1.0 - 1e-9):
+            # Bounded by the budget too: a real_time_factor the machine cannot reach leaves
+            # the rest owed (then given up at the bound), never a tick that blocks services.
+            while (self.backlog_s >= dt * (1.0 - 1e-9) and not self.paused
+                   and time.monotonic() < deadline):
                 self._step()
                 self.backlog_s -= dt
                 stepped = True
         else:
-            deadline = now + FAST_TICK_BUDGET_S
-            while time.monotonic() < deadline:
+            while not self.paused and time.monotonic() < deadline:
                 self._step()
                 stepped = True
         if stepped and self.clock_publisher is not None:
             self.clock_publisher.publish(ClockMessage(clock=stamp_of(self.simulation.time)))
+        self._report_recovered()
 
     def _step(self):
         sim = self.simulation
+        if sim.time + sim.max_step > LAST_STAMP_S:
+            # builtin_interfaces/Time counts seconds in an int32: 68 years of simulated time.
+            self.paused = self.stamp_limit_reached = True
+            self.get_logger().error(
+                f'simulated time reached {sim.time:.0f} s, the last a ROS time stamp can '
+                'carry (2^31 s): paused; ~/reset starts again from 0')
+            return
         if self.wrench_timeout > 0.0:
             expired = sim.time - self.wrench_time > self.wrench_timeout
             if expired.any():
@@ -218,6 +255,18 @@ class PoolSimNode(Node):
                                     if publisher.get_subscription_count() > 0]
         return self.odometry_wanted
 
+    def _report_recovered(self):
+        """Name the spheres the step guard put back in this tick, and the likely cause."""
+        recovered = self.simulation.take_recovered()
+        if recovered:
+            names = named_few([self.simulation.spheres.names[i] for i in recovered],
+                              len(recovered))
+            self.get_logger().error(
+                f'a step would have left {names} non-finite or outside the pool: put back at '
+                f'rest where the step began; likely cause: '
+                f'{self.simulation.likely_cause(recovered[0])}',
+                throttle_duration_sec=THROTTLE_S)
+
     def _log_status(self):
         spheres = self.simulation.spheres
         heights = [f'{name} z={z:.2f} m' for name, z in zip(
@@ -233,7 +282,8 @@ class PoolSimNode(Node):
         return (f'{self.simulated_s:.2f} s simulated in {wall:.2f} s '
                 f'(real-time factor {self.simulated_s / wall:.3f}), {self.steps_taken} '
                 f'steps, {self.publishes} publishes, {self.given_up_s:.2f} s given up to '
-                f'the catch-up bound; wall time in {parts}')
+                f'the catch-up bound, {self.simulation.recoveries} spheres put back by the '
+                f'step guard; wall time in {parts}')
 
     # -- inputs ------------------------------------------------------------------------------
 
@@ -250,22 +300,24 @@ class PoolSimNode(Node):
             self._on_wrench(name, message)
 
     def destroy_node(self):
-        self.wrench_inputs.stop()
+        wrench_inputs = getattr(self, 'wrench_inputs', None)
+        if wrench_inputs is not None:
+            wrench_inputs.stop()
         return super().destroy_node()
 
     def _on_wrench(self, name, message):
         force = (message.force.x, message.force.y, message.force.z)
-        if not all(math.isfinite(f) for f in force):
-            self.get_logger().warning(
-                f'{name}/wrench: refused a force that is not finite {force}; keeping the last',
-                throttle_duration_sec=1.0)
+        try:
+            self.simulation.set_external_force(name, force)
+        except InvalidInput as error:
+            self.get_logger().warning(f'{name}/wrench: refused: {error}; keeping the last',
+                                      throttle_duration_sec=THROTTLE_S)
             return
         torque = (message.torque.x, message.torque.y, message.torque.z)
         if any(torque) and name not in self._torque_warned:
             self._torque_warned.add(name)
             self.get_logger().warning(
                 f'{name}/wrench: torque {torque} ignored: a point mass cannot turn')
-        self.simulation.set_external_force(name, force)
         self.wrench_time[self.simulation.spheres.lookup(name)] = self.simulation.time
 
     def _check_parameters(self, parameters):
@@ -290,6 +342,7 @@ class PoolSimNode(Node):
         return SetParametersResult(successful=True)
 
     def _apply_parameters(self, parameters):
+        changed = []
         for parameter in parameters:
             key = live_key(parameter.name, self.scene.sphere_names)
             sphere = parameter.name.rpartition('.')[0]
@@ -297,31 +350,42 @@ class PoolSimNode(Node):
                 self.simulation.set_mass(sphere, parameter.value)
             elif key == 'radius':
                 self.simulation.set_radius(sphere, parameter.value)
+            if key:
+                changed.append(self.simulation.spheres.lookup(sphere))
+        if changed:
+            self._warn_if_unstable(sorted(set(changed)))
 
     def _on_set_sphere(self, key, request, response):
         """Each entry: name = sphere, value = new mass (kg) or radius (m); a result each."""
         for entry in request.parameters:
-            try:
-                self.simulation.spheres.lookup(entry.name)
-            except InvalidInput as error:
-                response.results.append(SetParametersResult(successful=False, reason=str(error)))
-                continue
-            value = parameter_value_to_python(entry.value)
-            if isinstance(value, int) and not isinstance(value, bool):
-                value = float(value)  # kept a double, so the parameter keeps one type
-            try:
-                parameter = Parameter(f'{entry.name}.{key}', value=value)
-            except TypeError as error:
-                response.results.append(SetParametersResult(successful=False,
-                                                            reason=str(error)))
-                continue
-            response.results.extend(self.set_parameters([parameter]))
+            response.results.append(self._set_sphere_entry(key, entry))
         return response
+
+    def _set_sphere_entry(self, key, entry) -> SetParametersResult:
+        try:
+            self.simulation.spheres.lookup(entry.name)
+        except InvalidInput as error:
+            return SetParametersResult(successful=False, reason=str(error))
+        if entry.value.type not in KNOWN_PARAMETER_TYPES:
+            return SetParametersResult(successful=False, reason=(
+                f'{entry.name}.{key}: expected a number, got a value of unknown type code '
+                f'{entry.value.type} (ROS parameter types are 0 to 9)'))
+        value = parameter_value_to_python(entry.value)
+        if isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)  # kept a double, so the parameter keeps one type
+        parameter = Parameter(f'{entry.name}.{key}', value=value)
+        # Our checks first, so the reason is ours; then rclpy's path, which checks again.
+        checked = self._check_parameters([parameter])
+        if not checked.successful:
+            return checked
+        return self.set_parameters([parameter])[0]
 
     def _on_reset(self, request, response):
         self.pending_wrenches.clear()  # forces sent before the reset do not outlive it
         self.simulation.reset()
         self._reset_timing()
+        if self.stamp_limit_reached:  # paused at the end of ROS time stamps: go on again
+            self.paused = self.stamp_limit_reached = False
         self.set_parameters([
             Parameter(f'{name}.{key}', value=self.scene[f'{name}.{key}'])
             for name in self.scene.sphere_names for key in ('mass', 'radius')])
@@ -331,10 +395,86 @@ class PoolSimNode(Node):
         return response
 
     def _on_pause(self, request, response):
+        if not request.data and self.stamp_limit_reached:
+            response.success = False
+            response.message = ('paused at the last time a ROS stamp can carry (2^31 s); '
+                                'call ~/reset to start again from 0')
+            return response
         self.paused = bool(request.data)
         response.success = True
         response.message = 'paused' if self.paused else 'running'
         return response
+
+
+def refusal(service_type, request, reason):
+    """A response of `service_type` that refuses `request` with `reason`."""
+    response = service_type.Response()
+    if service_type is SetParameters:
+        response.results = [SetParametersResult(successful=False, reason=reason)
+                            for _ in request.parameters]
+    elif service_type is SetParametersAtomically:
+        response.result = SetParametersResult(successful=False, reason=reason)
+    elif hasattr(response, 'success'):
+        response.success, response.message = False, reason
+    return response
+
+
+def unknown_type_reason(entry):
+    return (f'{shortened(entry.name)}: value of unknown type code {entry.value.type} '
+            '(ROS parameter types are 0 to 9)')
+
+
+def guard_services(node):
+    """Every service of `node`, rclpy's parameter services too, answers every request.
+
+    rclpy's set_parameters services raise on a value of an unknown type code and the
+    exception ends the node: here such an entry is refused with a reason (and, atomically,
+    the whole request). Whatever else a callback raises is logged and refused: a request
+    never takes the node down.
+    """
+    for service in node.services:
+        callback, service_type = service.callback, service.srv_type
+        if service_type is SetParameters and service.srv_name.endswith('/set_parameters'):
+            callback = _per_entry_with_known_types(callback)
+        elif service_type is SetParametersAtomically:
+            callback = _atomic_with_known_types(callback)
+        service.callback = _refusing_on_error(node, service.srv_name, service_type, callback)
+
+
+def _per_entry_with_known_types(callback):
+    def set_parameters(request, response):
+        for entry in request.parameters:
+            if entry.value.type in KNOWN_PARAMETER_TYPES:
+                one = callback(SetParameters.Request(parameters=[entry]),
+                               SetParameters.Response())
+                response.results.extend(one.results)
+            else:
+                response.results.append(SetParametersResult(
+                    successful=False, reason=unknown_type_reason(entry)))
+        return response
+    return set_parameters
+
+
+def _atomic_with_known_types(callback):
+    def set_parameters_atomically(request, response):
+        for entry in request.parameters:
+            if entry.value.type not in KNOWN_PARAMETER_TYPES:
+                response.result = SetParametersResult(
+                    successful=False, reason=unknown_type_reason(entry) + '; nothing was set')
+                return response
+        return callback(request, response)
+    return set_parameters_atomically
+
+
+def _refusing_on_error(node, name, service_type, callback):
+    def guarded(request, response):
+        try:
+            return callback(request, response)
+        except Exception as error:  # the last line: log it, refuse it, keep running
+            reason = f'{name}: the request raised {type(error).__name__}: {shown(str(error))}'
+            node.get_logger().error(reason, throttle_duration_sec=THROTTLE_S)
+            return refusal(service_type, request, reason)
+    return guarded
 
 
 class WrenchInputs:
@@ -380,18 +520,28 @@ class WrenchInputs:
 
 
 def main(args=None):
-    """`ros2 run pool_sim pool_sim [--ros-args ...]`; exit code 1 for a bad params file."""
-    rclpy.init(args=args)
+    """`ros2 run pool_sim pool_sim [--ros-args ...]`: exit code 1, and one line naming the
+    key or the file, for a bad params file or argument; 0 on SIGINT or SIGTERM."""
+    take_signals()  # already taken when started through pool_sim.ros.executables
     node, code = None, 0
     try:
+        for path in params_files(sys.argv if args is None else args):
+            read_params_document(path)
+        try:
+            # Our own signal handling (executables.py): rclpy's would only shut the
+            # context down, and leave a node half built in start-up behind.
+            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        except RuntimeError as error:  # rcl could not parse the arguments or a params file
+            raise InvalidInput(str(error).splitlines()[0]) from None
         node = PoolSimNode()
         rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except (Stop, KeyboardInterrupt, ExternalShutdownException):
         pass
     except InvalidInput as error:
         rclpy.logging.get_logger('pool_sim').fatal(f'refusing to start: {error}')
         code = 1
     finally:
+        exit_on_signal()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()

@@ -1,0 +1,149 @@
+"""The node as a process, started as `bash dev.sh run` starts it (`python -m pool_sim`):
+a bad params file exits 1 with a line naming the key or the file and no traceback; a
+signal at any moment of start-up or running exits 0, cleanly."""
+import os
+from pathlib import Path
+import random
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, 'PYTHONPATH': str(REPO)}
+PARALLEL = 6  # processes at once (the machine has two cores; most of their time is waiting)
+
+
+def start(*ros_args):
+    arguments = [sys.executable, '-m', 'pool_sim']
+    if ros_args:
+        arguments += ['--ros-args', *ros_args]
+    return subprocess.Popen(arguments, env=ENV, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+
+
+def finish(process, timeout_s=30.0):
+    try:
+        output, _ = process.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        output, _ = process.communicate()
+        output += '\n(killed: it did not end in time)'
+    return process.returncode, output
+
+
+def section(parameters: str) -> str:
+    return '/**/pool_sim:\n  ros__parameters:\n' + ''.join(
+        f'    {line}\n' for line in parameters.splitlines())
+
+
+BAD_FILES = [
+    # (what the file holds, what the refusal line must name)
+    (section('sphere_names: []'), 'sphere_names'),
+    (section("sphere_names: [a-b]"), 'sphere_names'),
+    (section("sphere_names: [kugel_ü]"), 'sphere_names'),
+    (section("sphere_names: ['a~b']"), 'sphere_names'),
+    (section("sphere_names: ['a:b']"), 'sphere_names'),
+    (section("sphere_names: ['{ns}']"), 'sphere_names'),
+    (section(f"sphere_names: [{'k' * 300}]"), 'sphere_names'),
+    (section("sphere_names: [qos_overrides]"), 'sphere_names'),
+    (section("sphere_names: [use_sim_time]"), 'sphere_names'),
+    (section("sphere_names: ['{node}', pool_sim]"), 'sphere_names'),
+    (section('physics_rate_hz: 1.0e-12'), 'physics_rate_hz'),
+    (section('publish_rate_hz: 1.0e-12'), 'publish_rate_hz'),
+    (section('real_time_factor: 1.0e+5'), 'real_time_factor'),
+    (section('gravity: [0.0, 0.0, -1.0e+308]'), 'gravity'),
+    (section('water:\n  density: 1.0e+308'), 'water.density'),
+    (section('cork:\n  velocity: [1.0e+308, 0.0, 0.0]'), 'cork.velocity'),
+    (section('cork:\n  mass: 1.0e+200'), 'cork.mass'),
+    (section('cork:\n  drag_coefficient: 1.0e+308'), 'cork.drag_coefficient'),
+    (section('cork:\n  position: [true, false, true]'), 'cork.position'),
+    (section('cork:\n  position: [0.0, 0.0, 3.95]'), 'cork.position'),
+    (section('cork:\n  position: [9.0, 0.0, 0.0]'), 'cork.position'),
+    ('42\n', 'bad.yaml'),
+    ('- pool_sim\n- 42\n', 'bad.yaml'),
+    ('pool_sim:\n  - ros__parameters\n', 'bad.yaml'),
+    ('pool_sim:\n  ros__parameters:\n    gravity: [0, 0\n', 'bad.yaml'),
+    (None, 'missing.yaml'),
+]
+
+
+def test_every_bad_params_file_exits_1_with_one_line_naming_the_key(tmp_path):
+    runs = []
+    for i, (text, key) in enumerate(BAD_FILES):
+        folder = tmp_path / str(i)
+        folder.mkdir()
+        path = folder / ('missing.yaml' if text is None else 'bad.yaml')
+        if text is not None:
+            path.write_text(text, encoding='utf-8')
+        runs.append((text, key, path))
+    failures = []
+    for batch in range(0, len(runs), PARALLEL):
+        started = [(run, start('--params-file', str(run[2])))
+                   for run in runs[batch:batch + PARALLEL]]
+        for (text, key, path), process in started:
+            code, output = finish(process)
+            refusals = [line for line in output.splitlines() if 'refusing to start' in line]
+            if code != 1 or 'Traceback' in output or len(refusals) != 1 or \
+                    key not in refusals[0]:
+                failures.append((text, key, code, output[-600:]))
+    assert not failures, failures
+
+
+def signals_taken(process, timeout_s=30.0):
+    """Wait until the process catches SIGTERM (bit 15 of SigCgt in /proc/<pid>/status):
+    from then on our code, not the interpreter's own start-up, handles signals."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline and process.poll() is None:
+        try:
+            status = Path(f'/proc/{process.pid}/status').read_text()
+        except OSError:
+            break
+        caught = int(next(line for line in status.splitlines()
+                          if line.startswith('SigCgt:')).split()[1], 16)
+        if caught & (1 << (signal.SIGTERM - 1)):
+            return True
+        time.sleep(0.002)
+    return False
+
+
+def test_a_signal_at_any_moment_of_start_up_or_running_exits_cleanly():
+    # Moments after our code has taken the signals (before it, in CPython's own start and
+    # the ROS wheels' re-exec, a signal gets Python's default handling): through the
+    # imports, rclpy.init, building the node, loading the compiled kernel and spinning;
+    # SIGINT and SIGTERM alike.
+    rng = random.Random(20261201)
+    moments = [0.0, 0.01, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0]
+    moments += [rng.uniform(0.0, 2.5) for _ in range(5)]
+    cases = [(moment, (signal.SIGINT, signal.SIGTERM)[i % 2])
+             for i, moment in enumerate(moments)]
+    failures = []
+    for batch in range(0, len(cases), PARALLEL):
+        started = []
+        for moment, number in cases[batch:batch + PARALLEL]:
+            process = start()
+            assert signals_taken(process)
+            started.append((moment, number, process, time.monotonic()))
+        for moment, number, process, ready in sorted(started, key=lambda c: c[3] + c[0]):
+            time.sleep(max(0.0, ready + moment - time.monotonic()))
+            process.send_signal(number)
+        for moment, number, process, _ in started:
+            code, output = finish(process)
+            if code != 0 or 'Traceback' in output or 'terminate called' in output:
+                failures.append((round(moment, 3), number.name, code, output[-800:]))
+    assert not failures, failures
+
+
+@pytest.mark.parametrize('first, second', [(signal.SIGINT, signal.SIGINT),
+                                           (signal.SIGTERM, signal.SIGINT)])
+def test_a_second_signal_during_the_clean_up_ends_it_at_once_and_cleanly(first, second):
+    process = start()
+    assert signals_taken(process)
+    time.sleep(2.0)
+    process.send_signal(first)
+    time.sleep(0.01)
+    process.send_signal(second)
+    code, output = finish(process)
+    assert code == 0 and 'Traceback' not in output, output
