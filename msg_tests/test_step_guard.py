@@ -9,6 +9,7 @@ from pool_sim.physics import fused as fused_module
 from pool_sim.physics import simulation as simulation_module
 from pool_sim.physics.fused import numba
 from pool_sim.physics.stability import stable_step_bound
+from scenes import one_sphere
 
 BACKENDS = ['numpy'] + (['fused'] if numba is not None else [])
 FLOAT_LIMIT = 'forces beyond what float arithmetic can hold'
@@ -112,3 +113,14 @@ def test_the_fused_kernel_counts_and_flags_every_failed_sphere(count, monkeypatc
         assert_finite_and_inside(sim)
         assert sim.take_recovered() == failing
         assert sim.recoveries == step * len(failing)
+
+
+def test_the_likely_cause_names_the_bound_for_spheres_given_as_arrays():
+    # A scene of many spheres is built as arrays (initial_spheres), with no per-sphere keys.
+    template = Simulation(one_sphere(0.02, mass=0.0027, position=(0.0, 0.0, -1.0)))
+    scene = Scene({'integrator': 'rk4', 'physics_rate_hz': 30.0})
+    sim = Simulation(scene, initial_spheres=template.spheres.copy())
+    for _ in range(30):
+        sim.step()
+    assert sim.recoveries > 0
+    assert 'rk4 is unstable at 0.0333 s for this sphere' in sim.likely_cause(0)

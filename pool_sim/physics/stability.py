@@ -86,7 +86,7 @@ def stable_step_bound(scene, integrator=None, spheres=None, indices=None):
     spheres, indices: as in sphere_stiffness (the bound for some spheres as they are now).
     0.0 means no step is stable (explicit Euler on an undamped spring)."""
     integrator = integrator or scene['integrator']
-    if integrator in UNCONDITIONALLY_STABLE or not scene.sphere_names:
+    if integrator in UNCONDITIONALLY_STABLE or (spheres is None and not scene.sphere_names):
         return math.inf
     omega_sq, drag_rate = sphere_stiffness(scene, spheres, indices)
     if omega_sq.size == 0:
