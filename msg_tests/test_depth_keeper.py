@@ -24,7 +24,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 
 from pool_sim.ros.depth_keeper import (DepthKeeper, InvalidParameter, PARAMETERS,
-                                       quiet_once_shut_down)
+                                       QuietWhenStopping)
 from ros_harness import Harness, overrides
 
 REPO = Path(__file__).resolve().parents[1]
@@ -361,21 +361,40 @@ def test_what_a_signal_leaves_half_built_prints_no_traceback_but_a_live_fault_do
     shown = []
     context = Context()
     rclpy.init(context=context)
-    monkeypatch.setattr(sys, 'unraisablehook', quiet_once_shut_down(shown.append, context))
+    hook = QuietWhenStopping(shown.append, context)
+    monkeypatch.setattr(sys, 'unraisablehook', hook)
 
     class Faulty:
         def __del__(self):
             raise AttributeError('half built')
     Faulty()
     gc.collect()
-    assert len(shown) == 1  # while the context is up: shown as ever
-    # SIGTERM just as spin builds its executor: the context is shut down under it.
-    rclpy.shutdown(context=context)
-    with pytest.raises(Exception, match='context is not valid'):
-        SingleThreadedExecutor(context=context)
+    assert len(shown) == 1  # while the node runs: shown as ever
+    hook.stopping = True  # Ctrl-C: KeyboardInterrupt may come before the context goes down
     Faulty()
     gc.collect()
     assert len(shown) == 1
+    # SIGTERM just as spin builds its executor: the context is shut down under it.
+    hook.stopping = False
+    rclpy.shutdown(context=context)
+    with pytest.raises(Exception, match='context is not valid'):
+        SingleThreadedExecutor(context=context)
+    gc.collect()
+    assert len(shown) == 1
+
+
+def test_ctrl_c_while_spin_builds_its_executor_exits_0_without_a_traceback():
+    # The race, made certain: KeyboardInterrupt half-way through the executor's __init__.
+    script = '\n'.join([
+        'import sys', 'import rclpy.executors',
+        'def interrupted(*args, **kwargs):', '    raise KeyboardInterrupt',
+        'rclpy.executors.SignalHandlerGuardCondition = interrupted',
+        'from pool_sim.ros.depth_keeper import main',
+        "sys.exit(main(['depth_keeper', '--ros-args', '-p', 'sphere:=titanium']))"])
+    done = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
+                          env=dict(os.environ, PYTHONPATH=str(REPO)), timeout=30)
+    assert done.returncode == 0, done.stderr
+    assert 'holding titanium' in done.stderr and 'Traceback' not in done.stderr, done.stderr
 
 
 @pytest.mark.parametrize('stop', [signal.SIGINT, signal.SIGTERM])

@@ -290,16 +290,20 @@ class DepthKeeper(Node):
         self.publisher.publish(wrench)
 
 
-def quiet_once_shut_down(previous_hook, context):
-    """A sys.unraisablehook that passes to previous_hook only while the context is up.
+class QuietWhenStopping:
+    """A sys.unraisablehook that passes to the previous one only while the node runs.
 
-    A signal shuts the context down under whatever rclpy was building (an executor in spin,
-    its guard conditions, the node): the half-built object's __del__ then fails, and Python
-    prints 'Exception ignored in ...' with a traceback. After the shutdown that is noise."""
-    def hook(unraisable):
-        if context.ok():
-            previous_hook(unraisable)
-    return hook
+    A signal stops whatever rclpy was building (an executor in spin, its guard conditions,
+    the node): KeyboardInterrupt comes in the middle, or rclpy's handler shuts the context
+    down under it. The half-built object's __del__ then fails, and Python prints 'Exception
+    ignored in ...' with a traceback; once stopping, that is noise."""
+
+    def __init__(self, previous_hook, context):
+        self.previous_hook, self.context, self.stopping = previous_hook, context, False
+
+    def __call__(self, unraisable):
+        if self.context.ok() and not self.stopping:
+            self.previous_hook(unraisable)
 
 
 def main(args=None):
@@ -308,23 +312,24 @@ def main(args=None):
     SIGINT or SIGTERM at any moment of main() exit cleanly with 0: rclpy's handlers shut the
     context down, which ends spin or makes whatever call was running raise; started through
     pool_sim.ros.executables, that module's Stop may come instead."""
-    node, code, started = None, 0, False
+    node, code, hook = None, 0, None
     try:
         try:
             rclpy.init(args=args)
-            started = True
-            sys.unraisablehook = quiet_once_shut_down(sys.unraisablehook,
-                                                      get_default_context())
+            hook = sys.unraisablehook = QuietWhenStopping(sys.unraisablehook,
+                                                           get_default_context())
             node = DepthKeeper()
             rclpy.spin(node)
         except (Stop, KeyboardInterrupt, ExternalShutdownException):
-            pass
+            if hook is not None:
+                hook.stopping = True
         except InvalidParameter as error:
             rclpy.logging.get_logger('depth_keeper').fatal(f'refusing to start: {error}')
             code = 1
         except Exception:
-            if not started or rclpy.ok():
+            if hook is None or rclpy.ok():
                 raise  # not a signal: a real fault, shown in full
+            hook.stopping = True
         finally:
             if node is not None:
                 node.destroy_node()
