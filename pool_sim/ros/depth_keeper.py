@@ -12,34 +12,25 @@ what is allowed (at start-up the node stops with exit code 1). Setting `sphere` 
 lets go of the old sphere (one zero wrench) and holds the new one.
 """
 import math
-import re
 import sys
 import time
 
 from geometry_msgs.msg import Wrench
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
-import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.utilities import get_default_context
 
-try:  # the entry points' signal handling: it raises Stop on SIGINT and SIGTERM
-    from pool_sim.ros.executables import Stop
-except ImportError:  # not there: then only rclpy's handling, and Stop is never raised
-    class Stop(BaseException):
-        pass
+from pool_sim.physics.spheres import NAME_MAX_CHARACTERS, NAME_TOKEN
+from pool_sim.ros.executables import run_node
 
 GAIN_MAX = 1e9
 FORCE_MAX_N = 1e9
 HEIGHT_MAX_M = 1e4
-NAME_MAX = 100
-NAME_TOKEN = re.compile(r'[A-Za-z_][A-Za-z0-9_]*')
 NAME_RULE = (f"a ROS name token: a letter or '_', then letters, digits or '_', no '__', "
-             f'at most {NAME_MAX} characters')
+             f'at most {NAME_MAX_CHARACTERS} characters')
 # Each term of the law is clipped to this before they are added, so their sum cannot overflow
 # (inf - inf = NaN) even for absurd odometry; no physical input comes near it.
 TERM_LIMIT = 1e300
@@ -91,7 +82,7 @@ class Name:
     def check(self, name, value):
         if not isinstance(value, str):
             raise InvalidParameter(f'{name}: expected {NAME_RULE}, got {_shown(value)}')
-        if (not NAME_TOKEN.fullmatch(value) or '__' in value or len(value) > NAME_MAX):
+        if (not NAME_TOKEN.fullmatch(value) or '__' in value or len(value) > NAME_MAX_CHARACTERS):
             shown = value if len(value) <= 40 else f'{value[:40]}... ({len(value)} characters)'
             raise InvalidParameter(f'{name}: must be {NAME_RULE}, got {shown!r}')
         return value
@@ -290,53 +281,10 @@ class DepthKeeper(Node):
         self.publisher.publish(wrench)
 
 
-class QuietWhenStopping:
-    """A sys.unraisablehook that passes to the previous one only while the node runs.
-
-    A signal stops whatever rclpy was building (an executor in spin, its guard conditions,
-    the node): KeyboardInterrupt comes in the middle, or rclpy's handler shuts the context
-    down under it. The half-built object's __del__ then fails, and Python prints 'Exception
-    ignored in ...' with a traceback; once stopping, that is noise."""
-
-    def __init__(self, previous_hook, context):
-        self.previous_hook, self.context, self.stopping = previous_hook, context, False
-
-    def __call__(self, unraisable):
-        if self.context.ok() and not self.stopping:
-            self.previous_hook(unraisable)
-
-
 def main(args=None):
-    """`ros2 run pool_sim depth_keeper [--ros-args ...]`; exit code 1 for a bad parameter.
-
-    SIGINT or SIGTERM at any moment of main() exit cleanly with 0: rclpy's handlers shut the
-    context down, which ends spin or makes whatever call was running raise; started through
-    pool_sim.ros.executables, that module's Stop may come instead."""
-    node, code, hook = None, 0, None
-    try:
-        try:
-            rclpy.init(args=args)
-            hook = sys.unraisablehook = QuietWhenStopping(sys.unraisablehook,
-                                                           get_default_context())
-            node = DepthKeeper()
-            rclpy.spin(node)
-        except (Stop, KeyboardInterrupt, ExternalShutdownException):
-            if hook is not None:
-                hook.stopping = True
-        except InvalidParameter as error:
-            rclpy.logging.get_logger('depth_keeper').fatal(f'refusing to start: {error}')
-            code = 1
-        except Exception:
-            if hook is None or rclpy.ok():
-                raise  # not a signal: a real fault, shown in full
-            hook.stopping = True
-        finally:
-            if node is not None:
-                node.destroy_node()
-            rclpy.try_shutdown()
-    except (Stop, KeyboardInterrupt):  # a signal while cleaning up
-        pass
-    return code
+    """`ros2 run pool_sim depth_keeper [--ros-args ...]`; exit code 1 for a bad parameter,
+    0 on SIGINT or SIGTERM at any moment."""
+    return run_node('depth_keeper', DepthKeeper, InvalidParameter, args)
 
 
 if __name__ == '__main__':

@@ -23,7 +23,6 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock as ClockMessage
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
@@ -32,7 +31,7 @@ from pool_sim.physics import fused, InvalidInput, Scene, Simulation
 from pool_sim.physics.scene import read_params_document
 from pool_sim.physics.spheres import named_few, shortened, shown
 from pool_sim.physics.stability import stable_step_bound
-from pool_sim.ros.executables import exit_on_signal, Stop, take_signals
+from pool_sim.ros.executables import run_node
 from pool_sim.ros.messages import LAST_STAMP_S, scene_markers, SphereMessages, stamp_of
 from pool_sim.ros.parameters import (declare_scene, live_key, overrides_of, params_files,
                                      ROS_OWN_PARAMETERS, scene_from_overrides)
@@ -522,30 +521,13 @@ class WrenchInputs:
 def main(args=None):
     """`ros2 run pool_sim pool_sim [--ros-args ...]`: exit code 1, and one line naming the
     key or the file, for a bad params file or argument; 0 on SIGINT or SIGTERM."""
-    take_signals()  # already taken when started through pool_sim.ros.executables
-    node, code = None, 0
-    try:
-        for path in params_files(sys.argv if args is None else args):
-            read_params_document(path)
-        try:
-            # Our own signal handling (executables.py): rclpy's would only shut the
-            # context down, and leave a node half built in start-up behind.
-            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-        except RuntimeError as error:  # rcl could not parse the arguments or a params file
-            raise InvalidInput(str(error).splitlines()[0]) from None
-        node = PoolSimNode()
-        rclpy.spin(node)
-    except (Stop, KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except InvalidInput as error:
-        rclpy.logging.get_logger('pool_sim').fatal(f'refusing to start: {error}')
-        code = 1
-    finally:
-        exit_on_signal()
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return code
+    return run_node('pool_sim', PoolSimNode, InvalidInput, args, check_params_files)
+
+
+def check_params_files(argv):
+    """Each --params-file can be read as a mapping (rcl takes `42` as a file of nothing)."""
+    for path in params_files(argv):
+        read_params_document(path)
 
 
 if __name__ == '__main__':
