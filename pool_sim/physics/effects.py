@@ -6,7 +6,8 @@ Every force function adds into `force` (3, n) N in place and returns nothing.
 """
 import numpy as np
 
-from .media import cap_fraction, linear_fraction, waterline_area
+from .media import (cap_fraction, cap_fraction_slope, linear_fraction, linear_fraction_slope,
+                    waterline_area)
 
 EFFECTS = ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass', 'contact', 'friction')
 DEFAULT_EFFECTS = ('gravity', 'buoyancy', 'drag', 'contact', 'friction')
@@ -91,6 +92,8 @@ class Dynamics:
         self.has_buoyancy = 'buoyancy' in effects
         self.needs_water_fraction = bool(_NEEDS_WATER_FRACTION & set(effects))
         self.fraction_of = {'cap': cap_fraction, 'linear': linear_fraction}[submerged_volume]
+        self.fraction_slope_of = {'cap': cap_fraction_slope,
+                                  'linear': linear_fraction_slope}[submerged_volume]
         self.submerged_volume = submerged_volume
 
     def water_fraction(self, spheres, position):
@@ -128,11 +131,12 @@ class Dynamics:
         return -(gain_air * (velocity - self.env.air.flow_velocity[:, None])
                  + gain_water * (velocity - self.env.water.flow_velocity[:, None]))
 
-    def vertical_stiffness(self, spheres, position, water_fraction, predicted_z):
+    def vertical_stiffness(self, spheres, position, predicted_z):
         """(n,) N/m: buoyancy's restoring stiffness -dF_z/dz over a step, clipped at 0.
 
         The larger of the slope at the step's start and the secant slope from there to
-        predicted_z (m, where z would end without the spring). The slope is non-zero only
+        predicted_z (m, where z would end without the spring, held to the waterline band).
+        The slope is non-zero only
         while a sphere crosses the surface, so a step from fully under (or above) the water
         that would cross the waterline band would otherwise feel no spring at all.
         """
@@ -145,10 +149,8 @@ class Dynamics:
             crossing = np.abs(position[2] - surface_z) < radius
             dvolume_dz = -np.where(crossing, spheres.volume / (2.0 * radius), 0.0)
         predicted_z = np.clip(predicted_z, surface_z - radius, surface_z + radius)
-        travel = predicted_z - position[2]
-        secant = np.divide(
-            spheres.volume * (self.fraction_of(predicted_z, radius, surface_z) - water_fraction),
-            travel, out=np.zeros_like(travel), where=travel != 0.0)
+        secant = -spheres.volume * self.fraction_slope_of(position[2], predicted_z, radius,
+                                                          surface_z)
         spring_per_volume_slope = self.env.gravity[2] * (self.env.water.density
                                                          - self.env.air.density)
         return np.maximum(np.maximum(spring_per_volume_slope * dvolume_dz,

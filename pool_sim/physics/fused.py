@@ -34,11 +34,8 @@ def supports(scene, submerged_volume):
 
 def _smooth(position, velocity, mass, radius, volume, cross_section, drag_coefficient,
             external_force, gravity, air_density, wind, water_density, current, surface_z, dt,
-            has_gravity, has_buoyancy, has_drag, old_position, old_velocity, failed):
+            has_gravity, has_buoyancy, has_drag, old_position, old_velocity):
     """The smooth part of linearly_implicit_euler, in place; old_* receive the start state.
-
-    A sphere the step would leave non-finite stays where it was, at rest, and is flagged in
-    failed (n,); returns how many were.
 
     Written with scalars and selects, allocation-free: the same arithmetic as the numpy
     pipeline. Compiled twice: as a plain loop, and as a parallel loop (prange) for many
@@ -50,7 +47,6 @@ def _smooth(position, velocity, mass, radius, volume, cross_section, drag_coeffi
     wx, wy, wz = wind[0], wind[1], wind[2]
     cx, cy, cz = current[0], current[1], current[2]
     density_step = water_density - air_density
-    count = 0
     for i in numba.prange(position.shape[1]):
         x, y, z = position[0, i], position[1, i], position[2, i]
         vx, vy, vz = velocity[0, i], velocity[1, i], velocity[2, i]
@@ -58,11 +54,13 @@ def _smooth(position, velocity, mass, radius, volume, cross_section, drag_coeffi
         old_velocity[0, i], old_velocity[1, i], old_velocity[2, i] = vx, vy, vz
         m, r = mass[i], radius[i]
         fraction = 0.0  # of the volume under water: geometry for buoyancy and drag only
+        h = 0.0  # submerged depth / r, clipped to [0, 2]
+        inverse_r = 1.0 / r  # one division where three would do the same
         if has_buoyancy or has_drag:
             depth = surface_z - (z - r)
             depth = 0.0 if depth < 0.0 else depth
             depth = 2.0 * r if depth > 2.0 * r else depth
-            h = depth / r
+            h = depth * inverse_r
             fraction = 0.25 * h * h * (3.0 - h)
         fx, fy, fz = external_force[0, i], external_force[1, i], external_force[2, i]
         if has_gravity:
@@ -103,57 +101,61 @@ def _smooth(position, velocity, mass, radius, volume, cross_section, drag_coeffi
             horizontal += dt * gain_water
             vertical = horizontal
         weight = 0.5
+        inverse_horizontal = 1.0 / horizontal  # the solve's divisor, and vertical's so far
         if has_buoyancy:
             offset = z - surface_z
             reach = r * r - offset * offset
             waterline = math.pi * (reach if reach > 0.0 else 0.0)
             stiffness = gz * density_step * -waterline
-            # The secant slope toward where z would end without the spring, within the
-            # waterline band: as Dynamics.vertical_stiffness.
-            predicted_z = z + 0.5 * dt * (vz + pz / vertical)
+            # The secant slope toward where z would end without the spring (held to the
+            # waterline band), as Dynamics.vertical_stiffness and media.cap_fraction_slope.
+            predicted_z = z + 0.5 * dt * (vz + pz * inverse_horizontal)
             predicted_z = min(max(predicted_z, surface_z - r), surface_z + r)
+            predicted_h = min(max((surface_z - predicted_z) * inverse_r + 1.0, 0.0), 2.0)
             travel = predicted_z - z
-            if travel != 0.0:
-                predicted_depth = surface_z - (predicted_z - r)
-                predicted_depth = 0.0 if predicted_depth < 0.0 else predicted_depth
-                predicted_depth = 2.0 * r if predicted_depth > 2.0 * r else predicted_depth
-                predicted_h = predicted_depth / r
-                predicted_fraction = 0.25 * predicted_h * predicted_h * (3.0 - predicted_h)
-                secant = volume[i] * (predicted_fraction - fraction) / travel
-                secant_stiffness = gz * density_step * secant
-                stiffness = secant_stiffness if secant_stiffness > stiffness else stiffness
+            share = (h - predicted_h) * r / (travel if travel != 0.0 else 1.0)
+            share = share if travel != 0.0 else 1.0
+            divided = 0.25 * (3.0 * (predicted_h + h) - (predicted_h * predicted_h
+                                                        + predicted_h * h + h * h))
+            secant_stiffness = -gz * density_step * volume[i] * divided * inverse_r * share
+            stiffness = secant_stiffness if secant_stiffness > stiffness else stiffness
             stiffness = stiffness if stiffness > 0.0 else 0.0
             spring = dt * dt * stiffness
             h_squared = spring / m
             weight = 0.5 + 0.5 * h_squared / (4.0 + h_squared)
             pz -= weight * (1.0 - weight) * spring * vz
             vertical += weight * weight * spring
-        nvx, nvy, nvz = px / horizontal, py / horizontal, pz / vertical
-        nx = x + 0.5 * dt * (vx + nvx)
-        ny = y + 0.5 * dt * (vy + nvy)
-        nz = z + 0.5 * dt * (vz + nvz) + (weight - 0.5) * dt * (nvz - vz)
-        if not (math.isfinite(nx) and math.isfinite(ny) and math.isfinite(nz)
-                and math.isfinite(nvx) and math.isfinite(nvy) and math.isfinite(nvz)):
-            nx, ny, nz, nvx, nvy, nvz = x, y, z, 0.0, 0.0, 0.0
-            failed[i] = 1
-            count += 1
+        nvx, nvy, nvz = px * inverse_horizontal, py * inverse_horizontal, pz / vertical
         velocity[0, i], velocity[1, i], velocity[2, i] = nvx, nvy, nvz
-        position[0, i], position[1, i], position[2, i] = nx, ny, nz
-    return count
+        position[0, i] = x + 0.5 * dt * (vx + nvx)
+        position[1, i] = y + 0.5 * dt * (vy + nvy)
+        position[2, i] = z + 0.5 * dt * (vz + nvz) + (weight - 0.5) * dt * (nvz - vz)
 
 
-def _contact(position, velocity, radius, old_position, old_velocity, pool_min, pool_max,
-             contact, dt, has_friction, failed):
-    """Floor, walls, ceiling and floor friction, in place: as contact.resolve_contacts.
+def _contact_and_guard(position, velocity, radius, old_position, old_velocity, pool_min,
+                       pool_max, contact, dt, has_contact, has_friction, failed):
+    """The step guard, then (has_contact) floor, walls, ceiling and floor friction, in place:
+    as contact.resolve_contacts and Simulation's guard.
 
-    Almost every sphere is inside, so this pass is six comparisons a sphere; the branches
-    are rarely taken and do not hold up the smooth pass. A sphere contact moved that is not
-    then inside with a finite velocity goes back where it began, at rest, and is flagged
-    in failed (n,) (if the smooth pass had not already); returns how many were.
+    A sphere the smooth pass left non-finite, or that contact left outside the pool or
+    with a non-finite velocity, goes back where it began, at rest, flagged in failed (n,)
+    (zero on entry); returns how many were. This is a plain loop with branches, rarely
+    taken: the checks live here, not in the smooth pass, whose loop must stay free of
+    conditional stores to vectorise (with them it ran 2-3x slower).
     """
     restitution, static_friction, kinetic_friction, rolling_friction = contact
     count = 0
     for i in range(position.shape[1]):
+        if not (math.isfinite(position[0, i]) and math.isfinite(position[1, i])
+                and math.isfinite(position[2, i]) and math.isfinite(velocity[0, i])
+                and math.isfinite(velocity[1, i]) and math.isfinite(velocity[2, i])):
+            for a in range(3):
+                position[a, i], velocity[a, i] = old_position[a, i], 0.0
+            failed[i] = 1
+            count += 1
+            continue
+        if not has_contact:
+            continue
         r = radius[i]
         floor_impulse = 0.0
         touched = False
@@ -206,9 +208,8 @@ def _contact(position, velocity, radius, old_position, old_velocity, pool_min, p
             if not good:
                 for a in range(3):
                     position[a, i], velocity[a, i] = old_position[a, i], 0.0
-                if not failed[i]:
-                    failed[i] = 1
-                    count += 1
+                failed[i] = 1
+                count += 1
     return count
 
 
@@ -226,7 +227,8 @@ if numba is not None:
     _smooth_serial = numba.njit(cache=True, nogil=True, error_model='numpy')(_smooth)
     _smooth_parallel = numba.njit(cache=True, nogil=True, error_model='numpy', parallel=True)(
         _renamed(_smooth, '_smooth_parallel'))
-    _contact_kernel = numba.njit(cache=True, nogil=True, error_model='numpy')(_contact)
+    _contact_and_guard_kernel = numba.njit(cache=True, nogil=True, error_model='numpy')(
+        _contact_and_guard)
 # Below this many spheres launching the parallel loop costs more than vectorising saves.
 # A launch costs ~5 us with the OpenMP or TBB threading layer and ~100 us with numba's own
 # workqueue, the one left where neither library is installed (measured, one thread: at
@@ -273,18 +275,17 @@ def step(simulation, dt):
                  spheres.volume, spheres.cross_section, spheres.drag_coefficient,
                  spheres.external_force, env.gravity, env.air.density, env.air.flow_velocity,
                  env.water.density, env.water.flow_velocity, env.surface_z, dt, has_gravity,
-                 has_buoyancy, has_drag, old_position, old_velocity, failed)
+                 has_buoyancy, has_drag, old_position, old_velocity)
     if spheres.position.shape[1] >= parallel_from_spheres():
         with _parallel_launch:
-            count = _smooth_parallel(*arguments)
+            _smooth_parallel(*arguments)
             _threading_layer = _threading_layer or numba.threading_layer()
     else:
-        count = _smooth_serial(*arguments)
-    if has_contact:
-        count += _contact_kernel(spheres.position, spheres.velocity, spheres.radius,
-                                 old_position, old_velocity, env.pool.corner_min,
-                                 env.pool.corner_max, simulation.contact_tuple, dt,
-                                 has_friction, failed)
+        _smooth_serial(*arguments)
+    count = _contact_and_guard_kernel(
+        spheres.position, spheres.velocity, spheres.radius, old_position, old_velocity,
+        env.pool.corner_min, env.pool.corner_max, simulation.contact_tuple, dt, has_contact,
+        has_friction, failed)
     if not count:
         return _NONE_FAILED
     indices = np.flatnonzero(failed)

@@ -87,7 +87,7 @@ def linearly_implicit_euler(dynamics, spheres, position, velocity, dt):
     stiffness = None
     if dynamics.has_buoyancy:
         predicted_z = position[2] + 0.5 * dt * (velocity[2] + momentum[2] / denominator[2])
-        stiffness = dynamics.vertical_stiffness(spheres, position, water_fraction, predicted_z)
+        stiffness = dynamics.vertical_stiffness(spheres, position, predicted_z)
     weight = 0.5
     if stiffness is not None:
         spring = dt * dt * stiffness  # (omega*dt)^2 * m

@@ -59,6 +59,37 @@ def cap_fraction(z, radius, surface_z):
     return 0.25 * h_over_r * h_over_r * (3.0 - h_over_r)
 
 
+def _secant_terms(z_from, z_to, radius, surface_z):
+    """(h1, h2, share): h = submerged depth / r at both heights, held to [0, 2], and the
+    share of the way from z_from to z_to that lies in the waterline band (1 where equal)."""
+    h1 = np.clip((surface_z - z_from) / radius + 1.0, 0.0, 2.0)
+    h2 = np.clip((surface_z - z_to) / radius + 1.0, 0.0, 2.0)
+    travel = z_to - z_from
+    moving = travel != 0.0
+    share = np.divide((h1 - h2) * radius, travel, out=np.ones_like(h1), where=moving)
+    return h1, h2, share
+
+
+def cap_fraction_slope(z_from, z_to, radius, surface_z):
+    """-(change of cap_fraction) / (change of z) from z_from to z_to, 1/m: the secant
+    slope, and at z_from == z_to the slope itself.
+
+    In h the fraction is the cubic h^2 (3 - h) / 4, whose divided difference
+    (3 (h1 + h2) - (h1^2 + h1 h2 + h2^2)) / 4 needs no division by h2 - h1, so there is no
+    cancellation however close the heights; beyond the band the fraction does not change,
+    which the share of the way inside the band accounts for.
+    """
+    h1, h2, share = _secant_terms(z_from, z_to, radius, surface_z)
+    return 0.25 * (3.0 * (h1 + h2) - (h1 * h1 + h1 * h2 + h2 * h2)) / radius * share
+
+
+def linear_fraction_slope(z_from, z_to, radius, surface_z):
+    """As cap_fraction_slope for linear_fraction (slope 1/(2r) within the band)."""
+    h1, h2, share = _secant_terms(z_from, z_to, radius, surface_z)
+    in_band = (h1 != h2) | ((h1 > 0.0) & (h1 < 2.0))
+    return np.where(in_band, 0.5 / radius * share, 0.0)
+
+
 def linear_fraction(z, radius, surface_z):
     """The seed's approximation: fraction = depth / diameter. Kept only for comparison."""
     return submerged_depth(z, radius, surface_z) / (2.0 * radius)
