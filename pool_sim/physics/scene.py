@@ -241,12 +241,14 @@ class Scene:
         params = {}
         for section in ('/**', f'/**/{node_name}', node_name, f'/{node_name}'):
             entry = document.get(section)
-            if entry is not None:
-                parameters = entry.get('ros__parameters') if isinstance(entry, dict) else None
-                if not isinstance(parameters, (dict, type(None))) or parameters is None and (
-                        not isinstance(entry, dict) or 'ros__parameters' not in entry):
-                    raise InvalidInput(f'{section}: expected a ros__parameters mapping')
-                params.update(flatten(parameters or {}))
+            if entry is None:
+                continue
+            if not isinstance(entry, dict) or 'ros__parameters' not in entry:
+                raise InvalidInput(f'{section}: expected a ros__parameters mapping')
+            parameters = entry['ros__parameters']  # empty in the file: None
+            if not isinstance(parameters, (dict, type(None))):
+                raise InvalidInput(f'{section}: expected a ros__parameters mapping')
+            params.update(flatten(parameters or {}))
         if not params:
             raise InvalidInput(f'{path}: no ros__parameters for node {node_name!r}')
         return cls(params)

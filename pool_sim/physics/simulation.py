@@ -116,8 +116,9 @@ class Simulation:
         step = self._failed_step.get(index, self.max_step)
         bound = stable_step_bound(self.scene, integrator, self.spheres, [index])
         if step > bound:
-            return (f'{integrator} is unstable at {step:.3g} s for this sphere (stable below '
-                    f'{bound:.3g} s); use linearly_implicit_euler or a higher physics_rate_hz')
+            below = f'stable below {bound:.3g} s' if bound > 0.0 else 'no step is stable'
+            return (f'{integrator} is unstable at {step:.3g} s for this sphere ({below}); '
+                    'use linearly_implicit_euler or a higher physics_rate_hz')
         return ('forces beyond what float arithmetic can hold: check mass, radius and '
                 'external force')
 

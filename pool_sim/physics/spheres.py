@@ -60,12 +60,20 @@ def is_number(value) -> bool:
     return (isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)))
 
 
+def _as_float(value) -> float:
+    """float(value); inf for an int beyond a double's range (float() raises there)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
+
+
 def check_number(name: str, value, low=None, high=None, unit='') -> float:
     """A finite float within [low, high] (either may be None), or InvalidInput naming `name`."""
     if not is_number(value):
         raise InvalidInput(f'{name}: expected a number, got {type(value).__name__} '
                            f'{shown(value)}')
-    number = float(value)
+    number = _as_float(value)
     if not math.isfinite(number):
         raise InvalidInput(f'{name}: must be finite, got {shown(value)}')
     if (low is not None and number < low) or (high is not None and number > high):
@@ -83,20 +91,12 @@ def range_words(low, high, unit='') -> str:
     return f'within [{low:g}, {high:g}]{unit}'
 
 
-def check_positive(name: str, value) -> float:
-    """A finite number > 0, or InvalidInput naming `name`."""
-    number = check_number(name, value)
-    if number <= 0.0:
-        raise InvalidInput(f'{name}: must be > 0, got {shown(value)}')
-    return number
-
-
 def check_vector(name: str, value, low=None, high=None, unit='') -> np.ndarray:
     """Three finite numbers, each within [low, high], or InvalidInput naming `name`."""
     components = list(value) if isinstance(value, (list, tuple, np.ndarray)) else None
     if components is None or len(components) != 3 or not all(map(is_number, components)):
         raise InvalidInput(f'{name}: expected 3 numbers [x, y, z], got {shown(value)}')
-    vector = np.array([float(c) for c in components])
+    vector = np.array([_as_float(c) for c in components])
     if not np.all(np.isfinite(vector)):
         raise InvalidInput(f'{name}: every component must be finite, got {shown(value)}')
     if (low is not None and vector.min() < low) or (high is not None and vector.max() > high):

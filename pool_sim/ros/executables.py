@@ -13,6 +13,7 @@ import sys
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _stopping = False
+_exit_code = 0  # what a signal during clean-up ends the process with: 1 after a refusal
 
 
 class Stop(BaseException):
@@ -28,7 +29,16 @@ def _raise_stop(signum, frame):
 
 
 def _exit_now(signum, frame):
-    os._exit(0)
+    _flush_and_exit(_exit_code)
+
+
+def _flush_and_exit(code):
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(code)
 
 
 def _quiet_once_stopping(unraisable, previous_hook=sys.unraisablehook):
@@ -58,10 +68,13 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
     rclpy.init without rclpy's own signal handlers (ours raise Stop; rclpy's would only
     shut the context down under a node half built), then make_node() and spin it until a
     signal. refused: an exception type; one raised by check_arguments(argv), by make_node
-    or (as rcl's parse error) by rclpy.init is a refusal to start: one fatal log line naming
-    the key or file, exit code 1.
+    or (as rcl's parse error) by rclpy.init, or a parameter rclpy itself refuses (a bad
+    use_sim_time), is a refusal to start: one fatal log line naming the key or file, exit
+    code 1.
     """
+    global _exit_code
     import rclpy
+    from rclpy.exceptions import ParameterException
     from rclpy.executors import ExternalShutdownException
     from rclpy.signals import SignalHandlerOptions
 
@@ -78,9 +91,13 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
         rclpy.spin(node)
     except (Stop, KeyboardInterrupt, ExternalShutdownException):
         pass
-    except refused as error:
+    except (refused, ParameterException) as error:
+        _exit_code = code = 1
+        exit_on_signal()  # a signal while this line is written must not interrupt it
         rclpy.logging.get_logger(name).fatal(f'refusing to start: {error}')
-        code = 1
+    except BaseException:
+        if not _stopping:
+            raise  # a fault, shown in full; once stopping, a consequence of the stop
     finally:
         exit_on_signal()
         if node is not None:
@@ -90,12 +107,17 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
 
 
 def _run(module_name):
+    """Import and run module_name's main(); then end the process at once with its code:
+    the interpreter's own tear-down (about 0.6 s of it) is where Python's signal handling
+    stops, and a signal there would kill the process instead."""
     take_signals()
     try:
-        main = importlib.import_module(module_name).main
-    except Stop:
-        return 0
-    return main()
+        code = importlib.import_module(module_name).main()
+    except BaseException:
+        if not _stopping:
+            raise
+        code = 0  # Stop, or what it became on its way (an import turns it to ImportError)
+    _flush_and_exit(code)
 
 
 def pool_sim():

@@ -29,8 +29,8 @@ from visualization_msgs.msg import MarkerArray
 
 from pool_sim.physics import fused, InvalidInput, Scene, Simulation
 from pool_sim.physics.scene import read_params_document
-from pool_sim.physics.spheres import named_few, shortened, shown
-from pool_sim.physics.stability import stable_step_bound
+from pool_sim.physics.spheres import named_few, NAMES_SHOWN, shortened, shown
+from pool_sim.physics.stability import stable_at, stable_step_bound
 from pool_sim.ros.executables import run_node
 from pool_sim.ros.messages import LAST_STAMP_S, scene_markers, SphereMessages, stamp_of
 from pool_sim.ros.parameters import (declare_scene, live_key, overrides_of, params_files,
@@ -46,12 +46,15 @@ TICK_PERIOD_RANGE_S = (0.001, 0.05)
 SERVICE_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 # Wall time the node may fall behind and still catch up (then it drops the backlog).
 MAX_BACKLOG_WALL_S = 0.1
-# Wall seconds between the status lines in the log, and how many spheres they name.
+# Wall seconds between the status lines in the log.
 STATUS_PERIOD_S = 5.0
-STATUS_SPHERES = 4
 # Wall seconds between two error lines of the same kind (a step guard, a refused input).
 THROTTLE_S = 1.0
 KNOWN_PARAMETER_TYPES = frozenset(t.value for t in Parameter.Type)
+# The most entries one request may carry: every entry of a set is applied in the request's
+# callback (about 0.25 ms each), every name of a read looked up, while the clock waits.
+MAX_SET_ENTRIES = 256
+MAX_READ_NAMES = 10_000
 
 
 class PoolSimNode(Node):
@@ -120,6 +123,7 @@ class PoolSimNode(Node):
         self.given_up_s = 0.0
         # True once simulated time reached the last second a ROS stamp holds (then paused).
         self.stamp_limit_reached = False
+        self.next_recovery_log_wall = 0.0
         self.started_wall = time.monotonic()  # both set again once set-up is done
         self.next_status_wall = self.started_wall + STATUS_PERIOD_S
         self.scene_marker_publisher.publish(scene_markers(
@@ -149,6 +153,9 @@ class PoolSimNode(Node):
     def _warn_if_unstable(self, indices=None):
         """Warn when the integrator is unstable at the configured rate for the scene's
         stiffest sphere (at start-up) or for the spheres `indices` just changed."""
+        if indices is not None and stable_at(self.scene, self.simulation.max_step,
+                                             spheres=self.simulation.spheres, indices=indices):
+            return  # one look at the step map; the bound (a bisection) only for the warning
         if indices is None:
             bound, what = stable_step_bound(self.scene), 'this scene: its stiffest sphere'
         else:
@@ -189,19 +196,18 @@ class PoolSimNode(Node):
             # Bounded by the budget too: a real_time_factor the machine cannot reach leaves
             # the rest owed (then given up at the bound), never a tick that blocks services.
             while (self.backlog_s >= dt * (1.0 - 1e-9) and not self.paused
-                   and time.monotonic() < deadline):
-                self._step()
+                   and time.monotonic() < deadline and self._step()):
                 self.backlog_s -= dt
                 stepped = True
         else:
-            while not self.paused and time.monotonic() < deadline:
-                self._step()
+            while not self.paused and time.monotonic() < deadline and self._step():
                 stepped = True
         if stepped and self.clock_publisher is not None:
             self.clock_publisher.publish(ClockMessage(clock=stamp_of(self.simulation.time)))
         self._report_recovered()
 
-    def _step(self):
+    def _step(self) -> bool:
+        """One physics step (and the publish it is due); False when time cannot go on."""
         sim = self.simulation
         if sim.time + sim.max_step > LAST_STAMP_S:
             # builtin_interfaces/Time counts seconds in an int32: 68 years of simulated time.
@@ -209,7 +215,7 @@ class PoolSimNode(Node):
             self.get_logger().error(
                 f'simulated time reached {sim.time:.0f} s, the last a ROS time stamp can '
                 'carry (2^31 s): paused; ~/reset starts again from 0')
-            return
+            return False
         if self.wrench_timeout > 0.0:
             expired = sim.time - self.wrench_time > self.wrench_timeout
             if expired.any():
@@ -225,6 +231,7 @@ class PoolSimNode(Node):
             self.next_publish_time += self.publish_period
             if self.next_publish_time <= sim.time:
                 self.next_publish_time = sim.time + self.publish_period
+        return True
 
     def _publish_state(self):
         started = time.perf_counter()
@@ -257,19 +264,19 @@ class PoolSimNode(Node):
     def _report_recovered(self):
         """Name the spheres the step guard put back in this tick, and the likely cause."""
         recovered = self.simulation.take_recovered()
-        if recovered:
-            names = named_few([self.simulation.spheres.names[i] for i in recovered],
-                              len(recovered))
+        if recovered and time.monotonic() >= self.next_recovery_log_wall:
+            # Throttled here, not by the logger: the likely cause costs a bisection.
+            self.next_recovery_log_wall = time.monotonic() + THROTTLE_S
+            names = named_few([self.simulation.spheres.names[i] for i in recovered])
             self.get_logger().error(
                 f'a step would have left {names} non-finite or outside the pool: put back at '
                 f'rest where the step began; likely cause: '
-                f'{self.simulation.likely_cause(recovered[0])}',
-                throttle_duration_sec=THROTTLE_S)
+                f'{self.simulation.likely_cause(recovered[0])}')
 
     def _log_status(self):
         spheres = self.simulation.spheres
         heights = [f'{name} z={z:.2f} m' for name, z in zip(
-            spheres.names[:STATUS_SPHERES], spheres.position[2, :STATUS_SPHERES].tolist())]
+            spheres.names[:NAMES_SHOWN], spheres.position[2, :NAMES_SHOWN].tolist())]
         self.get_logger().info(f't={self.simulation.time:.1f} s: '
                                f'{named_few(heights, spheres.count)}. {self.time_report()}')
 
@@ -281,8 +288,8 @@ class PoolSimNode(Node):
         return (f'{self.simulated_s:.2f} s simulated in {wall:.2f} s '
                 f'(real-time factor {self.simulated_s / wall:.3f}), {self.steps_taken} '
                 f'steps, {self.publishes} publishes, {self.given_up_s:.2f} s given up to '
-                f'the catch-up bound, {self.simulation.recoveries} spheres put back by the '
-                f'step guard; wall time in {parts}')
+                f'the catch-up bound, {self.simulation.recoveries} put-backs by the step '
+                f'guard; wall time in {parts}')
 
     # -- inputs ------------------------------------------------------------------------------
 
@@ -366,9 +373,7 @@ class PoolSimNode(Node):
         except InvalidInput as error:
             return SetParametersResult(successful=False, reason=str(error))
         if entry.value.type not in KNOWN_PARAMETER_TYPES:
-            return SetParametersResult(successful=False, reason=(
-                f'{entry.name}.{key}: expected a number, got a value of unknown type code '
-                f'{entry.value.type} (ROS parameter types are 0 to 9)'))
+            return SetParametersResult(successful=False, reason=unknown_type_reason(entry))
         value = parameter_value_to_python(entry.value)
         if isinstance(value, int) and not isinstance(value, bool):
             value = float(value)  # kept a double, so the parameter keeps one type
@@ -381,13 +386,16 @@ class PoolSimNode(Node):
 
     def _on_reset(self, request, response):
         self.pending_wrenches.clear()  # forces sent before the reset do not outlive it
+        # Only the parameters a live change moved go back (each set costs ~0.25 ms).
+        changed = [Parameter(f'{name}.{key}', value=self.scene[f'{name}.{key}'])
+                   for name in self.scene.sphere_names for key in ('mass', 'radius')
+                   if self.get_parameter(f'{name}.{key}').value != self.scene[f'{name}.{key}']]
         self.simulation.reset()
         self._reset_timing()
         if self.stamp_limit_reached:  # paused at the end of ROS time stamps: go on again
             self.paused = self.stamp_limit_reached = False
-        self.set_parameters([
-            Parameter(f'{name}.{key}', value=self.scene[f'{name}.{key}'])
-            for name in self.scene.sphere_names for key in ('mass', 'radius')])
+        if changed:
+            self.set_parameters_atomically(changed)
         self._publish_state()
         self.next_publish_time = self.publish_period
         response.success, response.message = True, 'back to the initial scene at time 0'
@@ -409,8 +417,9 @@ def refusal(service_type, request, reason):
     """A response of `service_type` that refuses `request` with `reason`."""
     response = service_type.Response()
     if service_type is SetParameters:
-        response.results = [SetParametersResult(successful=False, reason=reason)
-                            for _ in request.parameters]
+        # One result object for every entry: a huge request costs one, not thousands.
+        response.results = [SetParametersResult(successful=False, reason=reason)] * len(
+            request.parameters)
     elif service_type is SetParametersAtomically:
         response.result = SetParametersResult(successful=False, reason=reason)
     elif hasattr(response, 'success'):
@@ -437,7 +446,30 @@ def guard_services(node):
             callback = _per_entry_with_known_types(callback)
         elif service_type is SetParametersAtomically:
             callback = _atomic_with_known_types(callback)
+        callback = _bounded(node, service.srv_name, service_type, callback)
         service.callback = _refusing_on_error(node, service.srv_name, service_type, callback)
+
+
+def _request_size(request):
+    """(entries, the most allowed) of a request: values to set, or names to read."""
+    if hasattr(request, 'parameters'):
+        return len(request.parameters), MAX_SET_ENTRIES
+    for field in ('names', 'prefixes'):
+        if hasattr(request, field):
+            return len(getattr(request, field)), MAX_READ_NAMES
+    return 0, 1
+
+
+def _bounded(node, name, service_type, callback):
+    """Refuses, as a whole, a request with more entries than one callback may take."""
+    def bounded(request, response):
+        size, most = _request_size(request)
+        if size <= most:
+            return callback(request, response)
+        reason = f'{name}: {size} entries in one request; at most {most}: send them in parts'
+        node.get_logger().warning(reason, throttle_duration_sec=THROTTLE_S)
+        return refusal(service_type, request, reason)
+    return bounded
 
 
 def _per_entry_with_known_types(callback):
