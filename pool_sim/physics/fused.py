@@ -137,18 +137,18 @@ def _contact_and_guard(position, velocity, radius, old_position, old_velocity, p
     """The step guard, then (has_contact) floor, walls, ceiling and floor friction, in place:
     as contact.resolve_contacts and Simulation's guard.
 
-    A sphere the smooth pass left non-finite, or that contact left outside the pool or
-    with a non-finite velocity, goes back where it began, at rest, flagged in failed (n,)
-    (zero on entry); returns how many were. This is a plain loop with branches, rarely
+    A sphere the smooth pass left non-finite, or whose bounce speed would not fit a double,
+    goes back where it began, at rest, flagged in failed (n,) (zero on entry); returns how
+    many were (contact itself only ever puts a sphere on a face, inside). This is a plain loop with branches, rarely
     taken: the checks live here, not in the smooth pass, whose loop must stay free of
     conditional stores to vectorise (with them it ran 2-3x slower).
     """
     restitution, static_friction, kinetic_friction, rolling_friction = contact
     count = 0
     for i in range(position.shape[1]):
-        if not (math.isfinite(position[0, i]) and math.isfinite(position[1, i])
-                and math.isfinite(position[2, i]) and math.isfinite(velocity[0, i])
-                and math.isfinite(velocity[1, i]) and math.isfinite(velocity[2, i])):
+        # v * 0 is 0 for a finite v and NaN otherwise: one test for six numbers.
+        if not (position[0, i] * 0.0 + position[1, i] * 0.0 + position[2, i] * 0.0
+                + velocity[0, i] * 0.0 + velocity[1, i] * 0.0 + velocity[2, i] * 0.0) == 0.0:
             for a in range(3):
                 position[a, i], velocity[a, i] = old_position[a, i], 0.0
             failed[i] = 1
@@ -158,7 +158,7 @@ def _contact_and_guard(position, velocity, radius, old_position, old_velocity, p
             continue
         r = radius[i]
         floor_impulse = 0.0
-        touched = False
+        put_back = False
         for a in range(3):
             low = pool_min[a] + r
             high = pool_max[a] - r
@@ -170,6 +170,8 @@ def _contact_and_guard(position, velocity, radius, old_position, old_velocity, p
                 normal_speed = inward * v
                 if normal_speed >= 0.0:
                     bounced = normal_speed
+                elif old_velocity[a, i] == 0.0 and old_position[a, i] == face:
+                    bounced = 0.0  # at rest on the face: what impact_speed gives, at once
                 else:  # contact.impact_speed
                     approach_start, approach_end = -inward * old_velocity[a, i], -normal_speed
                     before = max(inward * (old_position[a, i] - face), 0.0)
@@ -180,11 +182,19 @@ def _contact_and_guard(position, velocity, radius, old_position, old_velocity, p
                     bounced = restitution * math.sqrt(max(squared, 0.0))
                     if not bounced > approach_end - approach_start:  # resting contact
                         bounced = 0.0
+                    if not math.isfinite(bounced):  # v^2 beyond a double: the step guard
+                        for b in range(3):
+                            position[b, i], velocity[b, i] = old_position[b, i], 0.0
+                        failed[i] = 1
+                        count += 1
+                        put_back = True
+                        break
                 position[a, i] = face
                 velocity[a, i] = inward * bounced
-                touched = True
                 if a == 2 and below:
                     floor_impulse = bounced - normal_speed
+        if put_back:
+            continue
         if has_friction and floor_impulse > 0.0:
             tx, ty = velocity[0, i], velocity[1, i]
             tangential_speed = math.hypot(tx, ty)
@@ -200,16 +210,6 @@ def _contact_and_guard(position, velocity, radius, old_position, old_velocity, p
                 position[1, i] += dt * (velocity[1, i] - ty)
             for a in range(2):
                 position[a, i] = min(max(position[a, i], pool_min[a] + r), pool_max[a] - r)
-        if touched:
-            good = True
-            for a in range(3):
-                good = good and (pool_min[a] + r <= position[a, i] <= pool_max[a] - r
-                                 and math.isfinite(velocity[a, i]))
-            if not good:
-                for a in range(3):
-                    position[a, i], velocity[a, i] = old_position[a, i], 0.0
-                failed[i] = 1
-                count += 1
     return count
 
 
