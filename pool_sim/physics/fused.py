@@ -47,6 +47,10 @@ def _smooth(position, velocity, mass, radius, volume, cross_section, drag_coeffi
     wx, wy, wz = wind[0], wind[1], wind[2]
     cx, cy, cz = current[0], current[1], current[2]
     density_step = water_density - air_density
+    # How many spheres the step left a non-finite number (v * 0 is 0 for a finite v, else
+    # NaN). An integer reduction keeps the loop vectorised (a conditional store made it 2-3x
+    # slower, a float sum scalar); the serial pass finds the spheres when there are any.
+    nonfinite = 0
     for i in numba.prange(position.shape[1]):
         x, y, z = position[0, i], position[1, i], position[2, i]
         vx, vy, vz = velocity[0, i], velocity[1, i], velocity[2, i]
@@ -126,28 +130,32 @@ def _smooth(position, velocity, mass, radius, volume, cross_section, drag_coeffi
             pz -= weight * (1.0 - weight) * spring * vz
             vertical += weight * weight * spring
         nvx, nvy, nvz = px * inverse_horizontal, py * inverse_horizontal, pz / vertical
+        nx = x + 0.5 * dt * (vx + nvx)
+        ny = y + 0.5 * dt * (vy + nvy)
+        nz = z + 0.5 * dt * (vz + nvz) + (weight - 0.5) * dt * (nvz - vz)
         velocity[0, i], velocity[1, i], velocity[2, i] = nvx, nvy, nvz
-        position[0, i] = x + 0.5 * dt * (vx + nvx)
-        position[1, i] = y + 0.5 * dt * (vy + nvy)
-        position[2, i] = z + 0.5 * dt * (vz + nvz) + (weight - 0.5) * dt * (nvz - vz)
+        position[0, i], position[1, i], position[2, i] = nx, ny, nz
+        zero_if_finite = nx * 0.0 + ny * 0.0 + nz * 0.0 + nvx * 0.0 + nvy * 0.0 + nvz * 0.0
+        nonfinite += 0 if zero_if_finite == 0.0 else 1
+    return nonfinite
 
 
 def _contact_and_guard(position, velocity, radius, old_position, old_velocity, pool_min,
-                       pool_max, contact, dt, has_contact, has_friction, failed):
+                       pool_max, contact, dt, check_finite, has_contact, has_friction,
+                       failed):
     """The step guard, then (has_contact) floor, walls, ceiling and floor friction, in place:
     as contact.resolve_contacts and Simulation's guard.
 
-    A sphere the smooth pass left non-finite, or whose bounce speed would not fit a double,
-    goes back where it began, at rest, flagged in failed (n,) (zero on entry); returns how
-    many were (contact itself only ever puts a sphere on a face, inside). This is a plain loop with branches, rarely
-    taken: the checks live here, not in the smooth pass, whose loop must stay free of
-    conditional stores to vectorise (with them it ran 2-3x slower).
+    check_finite (the smooth pass saw a non-finite number): a sphere it left non-finite goes
+    back where it began, at rest, flagged in failed (n,) (zero on entry); so does one whose
+    bounce speed would not fit a double. Returns how many were. Contact itself only ever
+    puts a sphere on a face, inside. A plain loop with branches, rarely taken.
     """
     restitution, static_friction, kinetic_friction, rolling_friction = contact
     count = 0
     for i in range(position.shape[1]):
         # v * 0 is 0 for a finite v and NaN otherwise: one test for six numbers.
-        if not (position[0, i] * 0.0 + position[1, i] * 0.0 + position[2, i] * 0.0
+        if check_finite and not (position[0, i] * 0.0 + position[1, i] * 0.0 + position[2, i] * 0.0
                 + velocity[0, i] * 0.0 + velocity[1, i] * 0.0 + velocity[2, i] * 0.0) == 0.0:
             for a in range(3):
                 position[a, i], velocity[a, i] = old_position[a, i], 0.0
@@ -162,7 +170,10 @@ def _contact_and_guard(position, velocity, radius, old_position, old_velocity, p
         for a in range(3):
             low = pool_min[a] + r
             high = pool_max[a] - r
-            p, v = position[a, i], velocity[a, i]
+            p = position[a, i]
+            if low < p < high:
+                continue  # almost every sphere, on every axis: two comparisons
+            v = velocity[a, i]
             below = p < low or (p == low and v < 0.0)
             if below or p > high or (p == high and v > 0.0):
                 inward = 1.0 if below else -1.0
@@ -278,14 +289,17 @@ def step(simulation, dt):
                  has_buoyancy, has_drag, old_position, old_velocity)
     if spheres.position.shape[1] >= parallel_from_spheres():
         with _parallel_launch:
-            _smooth_parallel(*arguments)
+            nonfinite = _smooth_parallel(*arguments)
             _threading_layer = _threading_layer or numba.threading_layer()
     else:
-        _smooth_serial(*arguments)
+        nonfinite = _smooth_serial(*arguments)
+    check_finite = nonfinite > 0
+    if not (has_contact or check_finite):
+        return _NONE_FAILED
     count = _contact_and_guard_kernel(
         spheres.position, spheres.velocity, spheres.radius, old_position, old_velocity,
-        env.pool.corner_min, env.pool.corner_max, simulation.contact_tuple, dt, has_contact,
-        has_friction, failed)
+        env.pool.corner_min, env.pool.corner_max, simulation.contact_tuple, dt, check_finite,
+        has_contact, has_friction, failed)
     if not count:
         return _NONE_FAILED
     indices = np.flatnonzero(failed)
