@@ -32,19 +32,26 @@ class Harness:
         rclpy.init(context=self.context)
         try:
             self.executor = SingleThreadedExecutor(context=self.context)
-            self.sim = PoolSimNode(context=self.context, namespace=self.namespace,
-                                   parameter_overrides=overrides(self.params))
-            self.client = rclpy.create_node('test_client', namespace=self.namespace,
-                                            context=self.context)
-            self.nodes = [self.sim, self.client]
-            for make_node in self.extra_nodes:
-                self.nodes.append(make_node(context=self.context, namespace=self.namespace))
+            self.nodes = self.make_nodes()
             for node in self.nodes:
                 self.executor.add_node(node)
         except BaseException:
             rclpy.shutdown(context=self.context)
             raise
         return self
+
+    def make_nodes(self):
+        """The nodes under test and the client; a subclass may make others."""
+        self.sim = PoolSimNode(context=self.context, namespace=self.namespace,
+                               parameter_overrides=overrides(self.params))
+        self.client = self.make_client()
+        return [self.sim, self.client] + [
+            make_node(context=self.context, namespace=self.namespace)
+            for make_node in self.extra_nodes]
+
+    def make_client(self):
+        return rclpy.create_node('test_client', namespace=self.namespace,
+                                 context=self.context)
 
     def __exit__(self, *exc):
         try:

@@ -2,7 +2,6 @@
 time, a change of sphere while running, no odometry, odometry that is not finite, signals."""
 import functools
 import gc
-import itertools
 import math
 import os
 import re
@@ -21,7 +20,6 @@ from rcl_interfaces.srv import SetParameters
 import pytest
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 
 from pool_sim.ros import executables
@@ -30,60 +28,31 @@ from ros_harness import Harness, overrides
 
 REPO = Path(__file__).resolve().parents[1]
 NUMBERS = [name for name in PARAMETERS if name != 'sphere']
-_namespaces = itertools.count()
 
 
-class Keeper:
+class Keeper(Harness):
     """A private context with a DepthKeeper and a client node in a fresh namespace (no
     simulator: the test plays pool_sim by publishing odometry itself)."""
 
     def __init__(self, params=None, **keeper_kwargs):
-        self.params, self.keeper_kwargs = params or {}, keeper_kwargs
-        self.namespace = f'/keeper{next(_namespaces)}'
+        super().__init__(params)
+        self.keeper_kwargs = keeper_kwargs
+
+    def make_nodes(self):
+        self.keeper = DepthKeeper(context=self.context, namespace=self.namespace,
+                                  parameter_overrides=overrides(self.params),
+                                  **self.keeper_kwargs)
+        self.client = self.make_client()
+        return [self.keeper, self.client]
 
     def __enter__(self):
-        self.context = Context()
-        rclpy.init(context=self.context)
-        self.nodes = []
-        try:
-            self.executor = SingleThreadedExecutor(context=self.context)
-            self.keeper = DepthKeeper(context=self.context, namespace=self.namespace,
-                                      parameter_overrides=overrides(self.params),
-                                      **self.keeper_kwargs)
-            self.nodes.append(self.keeper)
-            self.client = rclpy.create_node('test_client', namespace=self.namespace,
-                                            context=self.context)
-            self.nodes.append(self.client)
-            for node in self.nodes:
-                self.executor.add_node(node)
-        except BaseException:
-            self.__exit__()
-            raise
+        super().__enter__()
         self.parameter_client = self.client.create_client(
             SetParameters, f'{self.namespace}/depth_keeper/set_parameters')
         return self
 
-    def __exit__(self, *exc):
-        try:
-            self.executor.shutdown()
-            for node in self.nodes:
-                node.destroy_node()
-        finally:
-            rclpy.shutdown(context=self.context)
-
-    def topic(self, relative):
-        return f'{self.namespace}/pool_sim/{relative}'
-
     def collect(self, relative):
-        received = []
-        self.client.create_subscription(Wrench, self.topic(relative), received.append, 10)
-        return received
-
-    def spin_until(self, predicate, timeout_s=5.0):
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline and not predicate():
-            self.executor.spin_once(timeout_sec=0.01)
-        return predicate()
+        return super().collect(Wrench, relative)
 
     def set_remotely(self, **values):
         """As `ros2 param set` does: through the node's SetParameters service."""
