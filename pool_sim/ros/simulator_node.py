@@ -195,12 +195,12 @@ class PoolSimNode(Node):
             self.given_up_s += owed - self.backlog_s
             # Bounded by the budget too: a real_time_factor the machine cannot reach leaves
             # the rest owed (then given up at the bound), never a tick that blocks services.
-            while (self.backlog_s >= dt * (1.0 - 1e-9) and not self.paused
-                   and time.monotonic() < deadline and self._step()):
+            while (self.backlog_s >= dt * (1.0 - 1e-9) and time.monotonic() < deadline
+                   and self._step()):
                 self.backlog_s -= dt
                 stepped = True
         else:
-            while not self.paused and time.monotonic() < deadline and self._step():
+            while time.monotonic() < deadline and self._step():
                 stepped = True
         if stepped and self.clock_publisher is not None:
             self.clock_publisher.publish(ClockMessage(clock=stamp_of(self.simulation.time)))
