@@ -36,7 +36,8 @@ def test_bad_mass_or_radius_is_refused_and_changes_nothing(setter, value):
 def test_unknown_sphere_is_refused_naming_the_known_ones(setter):
     sim = Simulation(Scene.default())
     before = snapshot(sim)
-    with pytest.raises(InvalidInput, match="unknown sphere 'moon'; known spheres: cork, steel, ice$"):
+    with pytest.raises(InvalidInput,
+                       match="unknown sphere 'moon'; known spheres: cork, steel, ice$"):
         getattr(sim, setter)('moon', 1.0)
     assert_unchanged(sim, before)
 

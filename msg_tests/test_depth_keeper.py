@@ -141,6 +141,10 @@ BAD_VALUES = [
     ('sphere', '', 'sphere: must be a ROS name token'),
     ('sphere', 'x' * 101, "sphere: must be .*, got 'x{40}\\.\\.\\. \\(101 characters\\)'"),
     ('sphere', 5, 'sphere: expected a ROS name token.*, got 5'),
+    # A huge value is quoted cut short: the refusal stays one short line.
+    ('kp', '9' * 100_000, "kp: expected a number .*, got '9{50,60}\\.\\.\\. \\(a string\\)$"),
+    ('ki', [1.0] * 100_000,
+     'ki: expected a number .*, got \\[1.0, .{40,60}\\.\\.\\. \\(an array\\)$'),
 ]
 
 

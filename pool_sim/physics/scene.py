@@ -214,8 +214,8 @@ class Scene:
             allowed.update({f'{name}.{key}': spec for key, spec in SPHERE_KEYS.items()})
         for name in params:
             if name not in allowed:
-                raise InvalidInput(f'{shortened(name)}: unknown key; spheres are {named_few(names)}, '
-                                   f'global keys are {list(GLOBAL_KEYS)}')
+                raise InvalidInput(f'{shortened(name)}: unknown key; spheres are '
+                                   f'{named_few(names)}, global keys are {list(GLOBAL_KEYS)}')
         values = {}
         for name, spec in allowed.items():
             if name in params and not (spec.default is None and params[name] is None):

@@ -23,7 +23,7 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from pool_sim.physics.spheres import NAME_MAX_CHARACTERS, NAME_TOKEN
+from pool_sim.physics.spheres import NAME_MAX_CHARACTERS, NAME_TOKEN, shown
 from pool_sim.ros.executables import run_node
 
 GAIN_MAX = 1e9
@@ -83,8 +83,8 @@ class Name:
         if not isinstance(value, str):
             raise InvalidParameter(f'{name}: expected {NAME_RULE}, got {_shown(value)}')
         if (not NAME_TOKEN.fullmatch(value) or '__' in value or len(value) > NAME_MAX_CHARACTERS):
-            shown = value if len(value) <= 40 else f'{value[:40]}... ({len(value)} characters)'
-            raise InvalidParameter(f'{name}: must be {NAME_RULE}, got {shown!r}')
+            quoted = value if len(value) <= 40 else f'{value[:40]}... ({len(value)} characters)'
+            raise InvalidParameter(f'{name}: must be {NAME_RULE}, got {quoted!r}')
         return value
 
     def descriptor(self):
@@ -116,15 +116,16 @@ def _number(value):
 
 
 def _shown(value):
+    """The value and its kind, for a refusal; a long one cut (core's `shown`)."""
     if value is None:
         return 'no value'
     if isinstance(value, bool):
         return f'{str(value).lower()} (a bool)'
     if isinstance(value, str):
-        return f'{value!r} (a string)'
+        return f'{shown(value)} (a string)'
     if isinstance(value, (list, tuple)) or hasattr(value, 'tolist'):
-        return f'{list(value)!r} (an array)'
-    return repr(value)
+        return f'{shown(list(value))} (an array)'
+    return shown(value)
 
 
 def _finite(odometry):
