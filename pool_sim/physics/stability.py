@@ -50,7 +50,10 @@ def sphere_stiffness(scene, spheres=None, indices=None):
     terminal = np.sqrt(2.0 * net_weight / np.maximum(water * drag_coefficient * area, 1e-300))
     fall = math.sqrt(2.0 * gravity * max(scene['pool.max'][2] - scene['water.surface_z'], 0.0))
     speed = np.maximum(np.maximum(terminal, fall), initial_speed)
-    return omega_sq, water * drag_coefficient * area * speed / inertia
+    # No drag coefficient, no damping: not 0 * an infinite reference speed (NaN).
+    drag_rate = np.where(drag_coefficient > 0.0, water * drag_coefficient * area * speed
+                         / inertia, 0.0)
+    return omega_sq, drag_rate
 
 
 class _LinearSpring:
@@ -85,15 +88,29 @@ def spectral_radius(integrator, omega_sq, drag_rate, dt):
     return radius
 
 
+def _linearised(scene, integrator, spheres, indices):
+    """(integrator, omega_sq, drag_rate) of those spheres, or None where no step can be
+    unstable (an unconditionally stable integrator, no sphere, no spring and no drag)."""
+    integrator = integrator or scene['integrator']
+    if integrator in UNCONDITIONALLY_STABLE or (spheres is None and not scene.sphere_names):
+        return None
+    with np.errstate(over='ignore', invalid='ignore'):  # extreme rates may be inf: unstable
+        omega_sq, drag_rate = sphere_stiffness(scene, spheres, indices)
+    if not (omega_sq.any() or drag_rate.any()):
+        return None
+    return integrator, omega_sq, drag_rate
+
+
+def _stable(linearised, dt):
+    integrator, omega_sq, drag_rate = linearised
+    return bool(np.all(spectral_radius(integrator, omega_sq, drag_rate, dt) <= 1.0 + 1e-12))
+
+
 def stable_at(scene, dt, integrator=None, spheres=None, indices=None):
     """True when `integrator` (the scene's) is stable at step dt for those spheres: one
     look at the step map, cheap enough for every live change (the bound bisects)."""
-    integrator = integrator or scene['integrator']
-    if integrator in UNCONDITIONALLY_STABLE or (spheres is None and not scene.sphere_names):
-        return True
-    with np.errstate(over='ignore'):  # an extreme sphere's rates may be inf: unstable
-        omega_sq, drag_rate = sphere_stiffness(scene, spheres, indices)
-    return bool(np.all(spectral_radius(integrator, omega_sq, drag_rate, dt) <= 1.0 + 1e-12))
+    linearised = _linearised(scene, integrator, spheres, indices)
+    return linearised is None or _stable(linearised, dt)
 
 
 def stable_step_bound(scene, integrator=None, spheres=None, indices=None):
@@ -101,18 +118,12 @@ def stable_step_bound(scene, integrator=None, spheres=None, indices=None):
 
     spheres, indices: as in sphere_stiffness (the bound for some spheres as they are now).
     0.0 means no step is stable (explicit Euler on an undamped spring)."""
-    integrator = integrator or scene['integrator']
-    if integrator in UNCONDITIONALLY_STABLE or (spheres is None and not scene.sphere_names):
-        return math.inf
-    with np.errstate(over='ignore'):
-        omega_sq, drag_rate = sphere_stiffness(scene, spheres, indices)
-    if omega_sq.size == 0:
-        return math.inf
-    if not (omega_sq.any() or drag_rate.any()):
+    linearised = _linearised(scene, integrator, spheres, indices)
+    if linearised is None:
         return math.inf
 
     def stable(dt):
-        return np.all(spectral_radius(integrator, omega_sq, drag_rate, dt) <= 1.0 + 1e-12)
+        return _stable(linearised, dt)
     # Scan up from tiny steps to the first unstable one, then bisect.
     candidates = np.logspace(-7, 2, 181)
     unstable = [dt for dt in candidates if not stable(dt)]
