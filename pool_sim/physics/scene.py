@@ -37,8 +37,8 @@ def default_scene_file() -> Path:
 class Key:
     """One parameter: its kind ('number', 'vector', 'string', 'strings', 'bool'), default,
     a description with its unit, the inclusive range [low, high] of a number or of each
-    component of a vector (None: unbounded on that side), and for the other kinds a check
-    (a predicate and the words for what is allowed)."""
+    component of a vector (every one has both ends; None for the other kinds), and for the
+    other kinds a check (a predicate and the words for what is allowed)."""
 
     kind: str
     default: object

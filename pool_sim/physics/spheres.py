@@ -68,30 +68,27 @@ def _as_float(value) -> float:
         return math.inf
 
 
-def check_number(name: str, value, low=None, high=None, unit='') -> float:
-    """A finite float within [low, high] (either may be None), or InvalidInput naming `name`."""
+def check_number(name: str, value, low, high, unit='') -> float:
+    """A finite float within [low, high], or InvalidInput naming `name` and the range."""
     if not is_number(value):
         raise InvalidInput(f'{name}: expected a number, got {type(value).__name__} '
                            f'{shown(value)}')
     number = _as_float(value)
     if not math.isfinite(number):
         raise InvalidInput(f'{name}: must be finite, got {shown(value)}')
-    if (low is not None and number < low) or (high is not None and number > high):
+    if not low <= number <= high:
         raise InvalidInput(f'{name}: must be {range_words(low, high, unit)}, got '
                            f'{shown(value)}')
     return number
 
 
 def range_words(low, high, unit='') -> str:
+    """'within [low, high] unit', as refusals and parameter descriptors say it."""
     unit = f' {unit}' if unit else ''
-    if low is None:
-        return f'<= {high:g}{unit}'
-    if high is None:
-        return f'>= {low:g}{unit}'
     return f'within [{low:g}, {high:g}]{unit}'
 
 
-def check_vector(name: str, value, low=None, high=None, unit='') -> np.ndarray:
+def check_vector(name: str, value, low, high, unit='') -> np.ndarray:
     """Three finite numbers, each within [low, high], or InvalidInput naming `name`."""
     components = list(value) if isinstance(value, (list, tuple, np.ndarray)) else None
     if components is None or len(components) != 3 or not all(map(is_number, components)):
@@ -99,7 +96,7 @@ def check_vector(name: str, value, low=None, high=None, unit='') -> np.ndarray:
     vector = np.array([_as_float(c) for c in components])
     if not np.all(np.isfinite(vector)):
         raise InvalidInput(f'{name}: every component must be finite, got {shown(value)}')
-    if (low is not None and vector.min() < low) or (high is not None and vector.max() > high):
+    if vector.min() < low or vector.max() > high:
         raise InvalidInput(f'{name}: every component must be {range_words(low, high, unit)}, '
                            f'got {shown(value)}')
     return vector

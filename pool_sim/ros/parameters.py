@@ -44,7 +44,7 @@ def describe(name: str) -> ParameterDescriptor:
     on doubles only; the scene's own checks enforce every range)."""
     key = GLOBAL_KEYS.get(name) or SPHERE_KEYS[name.rsplit('.', 1)[1]]
     descriptor = ParameterDescriptor(description=key.description, dynamic_typing=True)
-    if key.low is not None and key.high is not None:
+    if key.low is not None:  # numbers and vectors
         descriptor.floating_point_range = [
             FloatingPointRange(from_value=float(key.low), to_value=float(key.high), step=0.0)]
         scope = 'each component ' if key.kind == 'vector' else ''
