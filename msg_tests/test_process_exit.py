@@ -179,3 +179,16 @@ def test_a_signal_while_the_refusal_is_written_still_exits_1_without_a_traceback
         if code not in (0, 1) or 'Traceback' in output:
             failures.append((i, code, output[-600:]))
     assert not failures, failures
+
+
+def test_a_stop_that_a_library_swallowed_during_start_up_still_stops_the_node():
+    # A signal 0.01 s after start once left the node running: the Stop it raised had been
+    # swallowed on the way (a bare `except:` in an import, as here) and nothing looked again.
+    script = '\n'.join([
+        'import sys', 'from pool_sim.ros import executables', 'executables.take_signals()',
+        'try:', '    executables._raise_stop(15, None)', 'except:', '    pass',
+        'from pool_sim.ros.simulator_node import main', 'sys.exit(main())'])
+    done = subprocess.run([sys.executable, '-c', script], env=ENV, capture_output=True,
+                          text=True, timeout=30)
+    assert done.returncode == 0 and 'Traceback' not in done.stderr, done.stderr
+    assert 'spheres (cork, steel, ice)' not in done.stderr  # it never started the node

@@ -50,10 +50,20 @@ def _quiet_once_stopping(unraisable, previous_hook=sys.unraisablehook):
 
 
 def take_signals():
-    """From now on the first SIGINT or SIGTERM raises Stop in the main thread."""
+    """From now on the first SIGINT or SIGTERM raises Stop in the main thread (unless one
+    has come already: then the later ones end the process at once, as they do)."""
+    if _stopping:
+        return
     sys.unraisablehook = _quiet_once_stopping
     for number in SIGNALS:
         signal.signal(number, _raise_stop)
+
+
+def stop_if_asked():
+    """Raise Stop if a signal has come: a library's bare `except:` (some imports have one)
+    may have swallowed the Stop it raised, and the process must not run on."""
+    if _stopping:
+        raise Stop('a signal came earlier')
 
 
 def exit_on_signal():
@@ -81,13 +91,16 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
     take_signals()  # already taken when started through pool_sim() or depth_keeper()
     node, code = None, 0
     try:
+        stop_if_asked()
         if check_arguments is not None:
             check_arguments(sys.argv if args is None else args)
         try:
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
         except RuntimeError as error:  # rcl could not parse the arguments or a params file
             raise refused(str(error).splitlines()[0]) from None
+        stop_if_asked()
         node = make_node()
+        stop_if_asked()
         rclpy.spin(node)
     except (Stop, KeyboardInterrupt, ExternalShutdownException):
         pass
