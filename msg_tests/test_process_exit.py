@@ -192,3 +192,18 @@ def test_a_stop_that_a_library_swallowed_during_start_up_still_stops_the_node():
                           text=True, timeout=30)
     assert done.returncode == 0 and 'Traceback' not in done.stderr, done.stderr
     assert 'spheres (cork, steel, ice)' not in done.stderr  # it never started the node
+
+
+def test_a_stop_lost_while_spinning_still_ends_the_spin():
+    # A Stop that lands in a __del__ or a weakref callback is unraisable: Python drops it.
+    # Here the signal's mark is set with no Stop at all; the spin must still end.
+    script = '\n'.join([
+        'import sys, threading', 'from pool_sim.ros import executables',
+        'threading.Timer(2.0, setattr, (executables, "_stopping", True)).start()',
+        'from pool_sim.ros.simulator_node import main', 'sys.exit(main())'])
+    started = time.monotonic()
+    done = subprocess.run([sys.executable, '-c', script], env=ENV, capture_output=True,
+                          text=True, timeout=30)
+    assert done.returncode == 0 and 'Traceback' not in done.stderr, done.stderr
+    assert 'spheres (cork, steel, ice)' in done.stderr  # it was running
+    assert time.monotonic() - started < 10.0

@@ -85,11 +85,11 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
     global _exit_code
     import rclpy
     from rclpy.exceptions import ParameterException
-    from rclpy.executors import ExternalShutdownException
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
 
     take_signals()  # already taken when started through pool_sim() or depth_keeper()
-    node, code = None, 0
+    node, executor, code = None, None, 0
     try:
         stop_if_asked()
         if check_arguments is not None:
@@ -100,8 +100,13 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
             raise refused(str(error).splitlines()[0]) from None
         stop_if_asked()
         node = make_node()
+        executor = SingleThreadedExecutor(context=node.context)
+        executor.add_node(node)
+        # As rclpy.spin, but looking at _stopping too: a Stop that lands in a __del__ or a
+        # weakref callback is unraisable (Python drops it), and the node must not run on.
+        while not _stopping and node.context.ok():
+            executor.spin_once(timeout_sec=0.25)
         stop_if_asked()
-        rclpy.spin(node)
     except (Stop, KeyboardInterrupt, ExternalShutdownException):
         pass
     except (refused, ParameterException) as error:
@@ -113,6 +118,8 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
             raise  # a fault, shown in full; once stopping, a consequence of the stop
     finally:
         exit_on_signal()
+        if executor is not None:
+            executor.shutdown()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
