@@ -21,8 +21,7 @@ VOLUME_INTEGRALS = {'cap': cap_volume_integral, 'linear': linear_volume_integral
 
 class Simulation:
     """scene: a Scene.  submerged_volume: 'cap' (exact) or 'linear' (the seed's, to compare).
-    initial_spheres: Spheres to start from instead of the scene's (for scenes of many
-    thousands of spheres, built as arrays rather than as per-sphere keys); reset returns here.
+    initial_spheres: Spheres to start from instead of the scene's; reset returns here.
 
     time: simulated seconds since the start or the last reset.
     max_step: the configured step, s (1 / physics_rate_hz); no step is ever longer.
