@@ -1,4 +1,5 @@
-"""Per-sphere keys as arrays over sphere_names (spheres.<key>), and Scene.with_spheres."""
+"""Per-sphere keys as arrays over sphere_names (spheres.<key>), Scene.with_spheres, and a
+lift area that follows the radius until it is set."""
 import math
 import time
 
@@ -6,16 +7,17 @@ from hypothesis import given, HealthCheck, settings, strategies as st
 import numpy as np
 import pytest
 
-from pool_sim.physics import InvalidInput, Scene
+from pool_sim.physics import InvalidInput, Scene, Simulation
 from pool_sim.physics.scene import GLOBAL_KEYS, SPHERE_KEYS
+from pool_sim.physics.spheres import LIFT_AREA_RANGE_M2
 
 SETTINGS = settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 VECTOR_KEYS = [key for key, spec in SPHERE_KEYS.items() if spec.kind == 'vector']
 NUMBER_KEYS = [key for key, spec in SPHERE_KEYS.items() if spec.kind == 'number']
-# Every array of a Spheres, the derived ones included.
+# Every array of a Spheres, the derived ones and the lift area's flag included.
 SPHERE_FIELDS = ('position', 'velocity', 'mass', 'radius', 'drag_coefficient', 'lift_area',
                  'lift_normal', 'lift_coefficient', 'external_force', 'volume',
-                 'cross_section')
+                 'cross_section', 'lift_area_follows_radius')
 NAMES = ['a', 'b', 'cork', 'd', 'e']
 
 
@@ -314,6 +316,71 @@ def test_a_refusal_stays_short_with_a_hundred_thousand_spheres():
     assert len(str(refused.value)) < 200
     with pytest.raises(InvalidInput, match=r'^spheres.mass: expected 100000 numbers'):
         Scene({'sphere_names': names, 'spheres.mass': masses[:-1]})
+
+
+# -- the lift area follows the radius until it is set ---------------------------------------
+
+def lift_scene(**keys):
+    return Scene({'sphere_names': ['free', 'pinned'], 'pinned.lift_area': 0.5,
+                  'effects': ['gravity', 'lift'], **keys})
+
+
+def test_the_scene_says_where_the_lift_area_was_given():
+    assert lift_scene().lift_area_given.tolist() == [False, True]
+    assert lift_scene().build_spheres().lift_area_follows_radius.tolist() == [True, False]
+    scene = Scene({'sphere_names': ['a', 'b'], 'spheres.lift_area': [0.1, 0.2]})
+    assert scene.lift_area_given.tolist() == [True, True]
+    # None for a sphere's lift_area: not given, as before
+    assert not Scene({'sphere_names': ['a'], 'a.lift_area': None}).lift_area_given[0]
+
+
+def test_a_lift_area_not_given_follows_the_radius():
+    sim = Simulation(lift_scene())
+    sim.set_radius('free', 0.3)
+    sim.set_radius('pinned', 0.3)
+    assert sim.spheres.lift_area[0] == math.pi * 0.3 * 0.3
+    assert sim.spheres.lift_area[1] == 0.5
+    # what the scene would have built for that radius, bit for bit
+    rebuilt = lift_scene(**{'free.radius': 0.3}).build_spheres()
+    assert_same_bits(sim.spheres.lift_area[0], rebuilt.lift_area[0])
+
+
+def test_set_lift_area_pins_the_area():
+    sim = Simulation(lift_scene())
+    sim.set_lift_area('free', 0.25)
+    sim.set_radius('free', 0.3)
+    assert sim.spheres.lift_area[0] == 0.25
+    assert not sim.spheres.lift_area_follows_radius[0]
+    sim.set_lift_area('free', 3)  # an integer is a number
+    assert sim.spheres.lift_area[0] == 3.0
+
+
+@pytest.mark.parametrize('area', [-1.0, 2e6, math.nan, math.inf, 'big', None, True])
+def test_a_bad_lift_area_is_refused_naming_the_key_and_changes_nothing(area):
+    sim = Simulation(lift_scene())
+    before = sim.spheres.copy()
+    with pytest.raises(InvalidInput, match='^free.lift_area: (must be|expected a number)'):
+        sim.set_lift_area('free', area)
+    assert_same_spheres(sim.spheres, before)
+    with pytest.raises(InvalidInput, match="^unknown sphere 'moon'"):
+        sim.set_lift_area('moon', 0.1)
+    assert sim.spheres.check_lift_area('free', LIFT_AREA_RANGE_M2[1]) == LIFT_AREA_RANGE_M2[1]
+
+
+def test_a_copy_of_the_spheres_is_independent_and_the_same_bits():
+    sim = Simulation(lift_scene())
+    sim.set_radius('free', 0.123456789)
+    copied = sim.spheres.copy()
+    assert_same_spheres(copied, sim.spheres)
+    copied.lift_area_follows_radius[0] = False
+    assert sim.spheres.lift_area_follows_radius[0]
+
+
+def test_with_values_lets_a_free_lift_area_follow_a_new_radius():
+    scene = lift_scene().with_values(**{'free.radius': 0.3, 'pinned.radius': 0.3})
+    assert scene['free.lift_area'] == math.pi * 0.3 * 0.3
+    assert scene['pinned.lift_area'] == 0.5
+    assert scene.lift_area_given.tolist() == [False, True]
 
 
 # -- with_spheres ----------------------------------------------------------------------------

@@ -559,4 +559,5 @@ class Scene:
             lift_area=arrays['lift_area'].copy(),
             lift_normal=np.ascontiguousarray(normal / np.linalg.norm(normal, axis=0)),
             lift_coefficient=arrays['lift_coefficient'].copy(),
-            external_force=np.zeros((3, len(self.sphere_names))))
+            external_force=np.zeros((3, len(self.sphere_names))),
+            lift_area_follows_radius=~self.lift_area_given)

@@ -136,6 +136,9 @@ class Simulation:
     def set_radius(self, name, radius_m):
         self.spheres.set_radius(name, radius_m, self.environment.pool)
 
+    def set_lift_area(self, name, area_m2):
+        self.spheres.set_lift_area(name, area_m2)
+
     def set_external_force(self, name, force_n):
         self.spheres.set_external_force(name, force_n)
 

@@ -129,6 +129,8 @@ class Spheres:
     position, velocity: (3, n) m, m/s.  mass: (n,) kg.  radius: (n,) m.
     drag_coefficient, lift_coefficient: (n,) dimensionless.  lift_area: (n,) m^2.
     lift_normal: (3, n) unit vectors.  external_force: (3, n) N, world frame.
+    lift_area_follows_radius: (n,) bool: where True, set_radius keeps lift_area = pi r^2
+    (the scene did not give the area); set_lift_area ends it. All False when not given.
     volume (m^3) and cross_section (m^2) are derived from radius and kept in step by set_radius.
     """
 
@@ -142,18 +144,27 @@ class Spheres:
     lift_normal: np.ndarray
     lift_coefficient: np.ndarray
     external_force: np.ndarray
+    lift_area_follows_radius: np.ndarray = None
 
     def __post_init__(self):
         self.index = {name: i for i, name in enumerate(self.names)}
         self.volume = 4.0 / 3.0 * np.pi * self.radius**3
         self.cross_section = np.pi * self.radius**2
+        if self.lift_area_follows_radius is None:
+            self.lift_area_follows_radius = np.zeros(len(self.names), dtype=bool)
 
     @property
     def count(self) -> int:
         return len(self.names)
 
     def copy(self) -> 'Spheres':
-        return Spheres(self.names, *(getattr(self, f).copy() for f in _ARRAY_FIELDS))
+        """An independent copy, bit for bit: the derived arrays are copied, not recomputed
+        (a vectorised power need not round as the scalar one set_radius uses)."""
+        copied = Spheres(self.names, *(getattr(self, f).copy() for f in _ARRAY_FIELDS),
+                         self.lift_area_follows_radius.copy())
+        for field in _DERIVED_FIELDS:
+            setattr(copied, field, getattr(self, field).copy())
+        return copied
 
     def lookup(self, name: str) -> int:
         """Index of the sphere called `name`, or InvalidInput naming a few known names."""
@@ -178,6 +189,11 @@ class Spheres:
                 f'{float(np.min(pool.extent))} m)')
         return radius
 
+    def check_lift_area(self, name: str, area_m2) -> float:
+        """The lift area (m^2) as a float, or InvalidInput; changes nothing."""
+        self.lookup(name)
+        return check_number(f'{name}.lift_area', area_m2, *LIFT_AREA_RANGE_M2, 'm^2')
+
     def set_mass(self, name: str, mass_kg) -> None:
         self.mass[self.lookup(name)] = self.check_mass(name, mass_kg)
 
@@ -188,8 +204,17 @@ class Spheres:
         self.radius[i] = radius
         self.volume[i] = 4.0 / 3.0 * np.pi * radius**3
         self.cross_section[i] = np.pi * radius**2
+        if self.lift_area_follows_radius[i]:
+            self.lift_area[i] = math.pi * radius * radius  # as the scene's default
         self.position[:, i] = np.clip(
             self.position[:, i], pool.corner_min + radius, pool.corner_max - radius)
+
+    def set_lift_area(self, name: str, area_m2) -> None:
+        """New lift area (m^2); from now on it stays when the radius changes."""
+        area = self.check_lift_area(name, area_m2)
+        i = self.lookup(name)
+        self.lift_area[i] = area
+        self.lift_area_follows_radius[i] = False
 
     def set_external_force(self, name: str, force_n) -> None:
         i = self.lookup(name)
@@ -198,3 +223,4 @@ class Spheres:
 
 _ARRAY_FIELDS = ('position', 'velocity', 'mass', 'radius', 'drag_coefficient', 'lift_area',
                  'lift_normal', 'lift_coefficient', 'external_force')
+_DERIVED_FIELDS = ('volume', 'cross_section')
