@@ -1,5 +1,6 @@
-"""Per-sphere keys as arrays over sphere_names (spheres.<key>), Scene.with_spheres, and a
-lift area that follows the radius until it is set."""
+"""Per-sphere keys as arrays over sphere_names (spheres.<key>), a lift area that follows the
+radius until it is set, and spawn and remove in the core (Simulation.change_spheres,
+Scene.with_spheres)."""
 import math
 import time
 
@@ -8,12 +9,14 @@ import numpy as np
 import pytest
 
 from pool_sim.physics import InvalidInput, Scene, Simulation
+from pool_sim.physics import fused as fused_module
+from pool_sim.physics.fused import numba
 from pool_sim.physics.scene import GLOBAL_KEYS, SPHERE_KEYS
 from pool_sim.physics.spheres import LIFT_AREA_RANGE_M2
 
+BACKENDS = ['numpy'] + (['fused'] if numba is not None else [])
 SETTINGS = settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 VECTOR_KEYS = [key for key, spec in SPHERE_KEYS.items() if spec.kind == 'vector']
-NUMBER_KEYS = [key for key, spec in SPHERE_KEYS.items() if spec.kind == 'number']
 # Every array of a Spheres, the derived ones and the lift area's flag included.
 SPHERE_FIELDS = ('position', 'velocity', 'mass', 'radius', 'drag_coefficient', 'lift_area',
                  'lift_normal', 'lift_coefficient', 'external_force', 'volume',
@@ -35,6 +38,12 @@ def assert_same_spheres(first, second):
 
 def flat(rows):
     return [component for row in rows for component in row]
+
+
+def column_of(spheres, field, i):
+    """One sphere's entry of a Spheres array: a scalar, or a (3,) column."""
+    array = getattr(spheres, field)
+    return array[..., i].copy()
 
 
 # -- the array form is the per-sphere form, bit for bit --------------------------------------
@@ -381,6 +390,133 @@ def test_with_values_lets_a_free_lift_area_follow_a_new_radius():
     assert scene['free.lift_area'] == math.pi * 0.3 * 0.3
     assert scene['pinned.lift_area'] == 0.5
     assert scene.lift_area_given.tolist() == [False, True]
+
+
+# -- spawn and remove ------------------------------------------------------------------------
+
+def running(backend, seconds=0.5):
+    """The default pool after `seconds`, with a force on ice and cork changed live."""
+    sim = Simulation(Scene.default(), backend=backend)
+    sim.set_external_force('ice', [1.0, 2.0, 3.0])
+    sim.set_mass('cork', 9.5)
+    sim.set_radius('cork', 0.25)
+    sim.set_lift_area('ice', 0.07)
+    sim.advance(seconds)
+    return sim
+
+
+def snapshot(spheres, name):
+    i = spheres.index[name]
+    return {field: column_of(spheres, field, i) for field in SPHERE_FIELDS}
+
+
+def assert_state(spheres, name, expected):
+    for field, value in expected.items():
+        assert_same_bits(column_of(spheres, field, spheres.index[name]), value)
+
+
+@pytest.mark.parametrize('backend', BACKENDS)
+def test_change_spheres_keeps_the_kept_adds_the_new_and_removes_the_rest(backend):
+    sim = running(backend)
+    kept = {name: snapshot(sim.spheres, name) for name in ('ice', 'cork')}
+    time_before = sim.time
+    scene = sim.scene.with_spheres(['ice', 'new', 'cork'],
+                                   {'new.mass': 2.0, 'new.position': [1.0, 1.0, 1.0]})
+    sim.change_spheres(scene)
+    assert sim.spheres.names == ('ice', 'new', 'cork') and sim.time == time_before
+    for name, state in kept.items():
+        assert_state(sim.spheres, name, state)
+    assert_state(sim.spheres, 'new', snapshot(scene.build_spheres(), 'new'))
+    assert sim.spheres.external_force[:, 1].tolist() == [0.0, 0.0, 0.0]
+    with pytest.raises(InvalidInput, match="unknown sphere 'steel'"):
+        sim.set_mass('steel', 1.0)
+    for _ in range(200):
+        sim.step()
+    assert np.all(np.isfinite(sim.spheres.position)) and sim.recoveries == 0
+    sim.reset()
+    assert sim.time == 0.0
+    assert_same_spheres(sim.spheres, scene.build_spheres())
+
+
+@pytest.mark.parametrize('backend', BACKENDS)
+def test_the_backends_agree_after_a_change_of_spheres(backend, monkeypatch):
+    # From 3 spheres to 120: the fused kernel's plain build, then its parallel one.
+    monkeypatch.setattr(fused_module, 'parallel_from_spheres', lambda: 64)
+    sim, plain = running(backend), running('numpy')
+    names = ['steel'] + [f'n{i}' for i in range(118)] + ['cork']
+    rng = np.random.default_rng(7)
+    given = {'spheres.position': rng.uniform(-3.5, 3.5, 3 * len(names)).tolist(),
+             'spheres.velocity': rng.normal(size=3 * len(names)).tolist()}
+    scene = sim.scene.with_spheres(names, given)
+    for each in (sim, plain):
+        each.change_spheres(scene)
+        each.spheres.external_force[:, 5] = [0.0, 0.0, 30.0]
+    for _ in range(100):
+        sim.step()
+        plain.step()
+    np.testing.assert_allclose(sim.spheres.position, plain.spheres.position,
+                               rtol=1e-12, atol=1e-12)
+    assert np.all(np.isfinite(sim.spheres.velocity)) and sim.recoveries == 0
+    sim.change_spheres(scene.with_spheres(['cork'], {}))  # back down to one
+    sim.step()
+    assert sim.spheres.position.shape == (3, 1)
+
+
+@SETTINGS
+@given(st.permutations(['cork', 'steel', 'ice', 'x', 'y']), st.integers(1, 5),
+       st.sampled_from(BACKENDS))
+def test_any_spawn_remove_and_reorder_keeps_every_kept_sphere_exactly(order, count, backend):
+    names = order[:count]
+    sim = running(backend, seconds=0.2)
+    before = {name: snapshot(sim.spheres, name) for name in sim.spheres.names}
+    scene = sim.scene.with_spheres(names, {'x.position': [0.5, 0.0, 1.0],
+                                           'spheres.drag_coefficient': [0.3] * count}
+                                   if 'x' in names else {})
+    sim.change_spheres(scene)
+    initial = scene.build_spheres()
+    for name in names:
+        assert_state(sim.spheres, name, before.get(name) or snapshot(initial, name))
+    sim.advance(0.2)
+    assert np.all(np.isfinite(sim.spheres.position))
+    sim.reset()
+    assert_same_spheres(sim.spheres, initial)
+
+
+@pytest.mark.parametrize('backend', BACKENDS)
+def test_put_backs_not_yet_taken_follow_their_spheres(backend):
+    sim = Simulation(Scene.default(), backend=backend)
+    sim.spheres.external_force[2, 1] = 1e300  # steel; past every setter's check
+    sim.step()
+    sim.change_spheres(sim.scene.with_spheres(['ice', 'new', 'steel'], {}))
+    assert sim.take_recovered() == [2]
+    assert 'forces beyond what float arithmetic can hold' in sim.likely_cause(2)
+    sim.spheres.external_force[:, 2] = 0.0
+    sim.spheres.external_force[2, 0] = 1e300  # ice
+    sim.step()
+    sim.change_spheres(sim.scene.with_spheres(['steel'], {}))  # ice removed, not yet taken
+    assert sim.take_recovered() == []
+
+
+def test_change_spheres_from_spheres_given_as_arrays():
+    template = Simulation(Scene.default())
+    sim = Simulation(Scene.default().with_values(sphere_names=[]),
+                     initial_spheres=template.spheres.copy())
+    sim.advance(0.1)
+    steel = snapshot(sim.spheres, 'steel')
+    scene = Scene.default().with_spheres(['steel', 'new'], {})
+    sim.change_spheres(scene)
+    assert_state(sim.spheres, 'steel', steel)
+    sim.reset()
+    assert_same_spheres(sim.spheres, scene.build_spheres())
+
+
+def test_change_spheres_refuses_a_scene_with_other_global_keys_and_changes_nothing():
+    sim = running('numpy')
+    before = sim.spheres.copy()
+    with pytest.raises(InvalidInput, match='^gravity: change_spheres changes the spheres only'):
+        sim.change_spheres(sim.scene.with_values(gravity=[0.0, 0.0, -1.0]))
+    assert_same_spheres(sim.spheres, before)
+    assert sim.scene.sphere_names == ('cork', 'steel', 'ice')
 
 
 # -- with_spheres ----------------------------------------------------------------------------

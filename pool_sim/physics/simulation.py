@@ -13,7 +13,7 @@ from .contact import resolve_contacts
 from .effects import Dynamics
 from .integrators import INTEGRATORS
 from .media import cap_volume_integral, linear_volume_integral
-from .spheres import InvalidInput
+from .spheres import InvalidInput, shown
 from .stability import stable_step_bound
 
 VOLUME_INTEGRALS = {'cap': cap_volume_integral, 'linear': linear_volume_integral}
@@ -30,6 +30,8 @@ class Simulation:
     The step guard is the last line of defence: a sphere a step would leave non-finite (or,
     with contact, outside the pool) goes back to where that step began, at rest.
     take_recovered() says which, likely_cause(index) why.
+
+    change_spheres spawns, removes and reorders spheres while it runs.
     """
 
     def __init__(self, scene, submerged_volume='cap', initial_spheres=None, backend='auto'):
@@ -141,6 +143,31 @@ class Simulation:
 
     def set_external_force(self, name, force_n):
         self.spheres.set_external_force(name, force_n)
+
+    def change_spheres(self, scene):
+        """Go on with the spheres of `scene` (a Scene whose global keys are this one's): it
+        may add, remove and reorder them.
+
+        A sphere in both keeps its whole state (position, velocity, mass, radius, lift
+        area, external force, ...); a new one starts at the scene's initial values with no
+        external force; time goes on. reset() then returns to the new scene at time 0.
+        """
+        for key, value in scene.global_values().items():
+            if key != 'sphere_names' and value != self.scene[key]:
+                raise InvalidInput(f'{key}: change_spheres changes the spheres only; the new '
+                                   f'scene has {shown(value)}, the running one '
+                                   f'{shown(self.scene[key])}')
+        spheres = scene.build_spheres()
+        spheres.carry_over(self.spheres)
+        # Pending put-backs follow their spheres to the new indices; removed ones are gone.
+        old_names, new_index = self.spheres.names, spheres.index
+        self._recovered = {new_index[old_names[i]] for i in self._recovered
+                           if old_names[i] in new_index}
+        self._failed_step = {new_index[old_names[i]]: step
+                             for i, step in self._failed_step.items()
+                             if old_names[i] in new_index}
+        self.fused_scratch = None  # sized for the old count
+        self.scene, self.initial_spheres, self.spheres = scene, None, spheres
 
     def sphere_state(self, name):
         """(position (3,), velocity (3,)) copies for one sphere, m and m/s."""

@@ -166,6 +166,17 @@ class Spheres:
             setattr(copied, field, getattr(self, field).copy())
         return copied
 
+    def carry_over(self, source: 'Spheres') -> None:
+        """Every sphere of self that `source` has too (by name) takes its whole state from
+        source: every array, the derived ones included."""
+        pairs = [(i, source.index[name]) for i, name in enumerate(self.names)
+                 if name in source.index]
+        if not pairs:
+            return
+        target, origin = np.array(pairs, dtype=np.intp).T
+        for field in (*_ARRAY_FIELDS, *_DERIVED_FIELDS, 'lift_area_follows_radius'):
+            getattr(self, field)[..., target] = getattr(source, field)[..., origin]
+
     def lookup(self, name: str) -> int:
         """Index of the sphere called `name`, or InvalidInput naming a few known names."""
         try:
