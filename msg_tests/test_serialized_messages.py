@@ -1,13 +1,22 @@
 """Patched messages read back as exactly the messages rclpy would build for the same values.
 
 (Not byte for byte: the serializer leaves CDR padding bytes uninitialised.)"""
+import array
+
+from hypothesis import given, settings, strategies as st
+from hypothesis.extra.numpy import arrays
 import numpy as np
 import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from geometry_msgs.msg import PoseArray
+from nav_msgs.msg import Odometry
+from std_msgs.msg import Float64MultiArray
 from visualization_msgs.msg import MarkerArray
 
-from pool_sim.ros.messages import pose_array, sphere_markers, SphereMessages, stamp_of
+from pool_sim.ros import messages as messages_module, serialized
+from pool_sim.ros.messages import (LAST_STAMP_S, odometry_messages, pose_array,
+                                   sphere_markers, sphere_odometry, sphere_states,
+                                   SphereMessages, stamp_of)
 
 
 def round_trip(message):
@@ -52,3 +61,145 @@ def test_a_patched_marker_array_reads_back_as_markers():
     assert [m.scale.x for m in markers] == [0.2, 0.5]
     assert (markers[1].pose.position.x, markers[1].header.stamp.sec,
             markers[1].header.stamp.nanosec) == (2.0, 3, 500_000_000)
+
+
+# Odometry and the states message: every sphere's bytes read back as the message rclpy would
+# build from the last values it was patched with.
+
+NAME_CHARACTERS = 'abcXYZ019_é'  # é: two bytes in UTF-8, so byte and character lengths differ
+
+
+def expected_odometry(name, frame_id, time_s, position, velocity):
+    odometry = sphere_odometry(name, frame_id)
+    odometry.header.stamp = stamp_of(time_s)
+    point, linear = odometry.pose.pose.position, odometry.twist.twist.linear
+    point.x, point.y, point.z = (float(v) for v in position)
+    linear.x, linear.y, linear.z = (float(v) for v in velocity)
+    return round_trip(odometry)
+
+
+def expected_states(position, velocity):
+    count = position.shape[1]
+    states = sphere_states(count)
+    states.data = array.array('d', np.concatenate((position, velocity)).T.ravel().tolist())
+    return states
+
+
+class LastPatched:
+    """What each sphere's Odometry should hold: the values of the last fill that wanted it
+    (zeros and stamp 0 before any)."""
+
+    def __init__(self, names, frame_id):
+        self.names, self.frame_id = names, frame_id
+        count = len(names)
+        self.time_s = np.zeros(count)
+        self.position, self.velocity = np.zeros((3, count)), np.zeros((3, count))
+
+    def fill(self, messages, time_s, position, velocity, wanted):
+        messages.fill(time_s, position, velocity, np.full(len(self.names), 0.1), wanted)
+        self.time_s[wanted] = time_s
+        self.position[:, wanted], self.velocity[:, wanted] = (position[:, wanted],
+                                                               velocity[:, wanted])
+
+    def check(self, messages, position, velocity):
+        for i, name in enumerate(self.names):
+            data = messages.odometry_bytes(i)
+            expected = expected_odometry(name, self.frame_id, self.time_s[i],
+                                         self.position[:, i], self.velocity[:, i])
+            assert deserialize_message(data, Odometry) == expected, (i, name)
+            assert messages.odometry[i] == data
+            # The same layout as rclpy's own: the same length.
+            assert len(data) == len(serialize_message(expected))
+        assert deserialize_message(messages.states_bytes(), Float64MultiArray) == \
+            expected_states(position, velocity)
+
+
+finite = st.floats(allow_nan=False, allow_infinity=False)
+
+
+@st.composite
+def fills(draw, count):
+    """(time_s, position (3, n), velocity (3, n), wanted indices) of one fill."""
+    time_s = draw(st.floats(0.0, float(LAST_STAMP_S)))
+    position = draw(arrays(np.float64, (3, count), elements=finite))
+    velocity = draw(arrays(np.float64, (3, count), elements=finite))
+    wanted = [i for i, on in enumerate(draw(st.lists(st.booleans(), min_size=count,
+                                                     max_size=count))) if on]
+    return time_s, position, velocity, wanted
+
+
+@st.composite
+def names_and_fills(draw):
+    names = draw(st.lists(st.text(NAME_CHARACTERS, min_size=1, max_size=64), min_size=1,
+                          max_size=12, unique=True))
+    frame_id = draw(st.text(NAME_CHARACTERS, min_size=1, max_size=20))
+    return names, frame_id, draw(st.lists(fills(len(names)), min_size=1, max_size=3))
+
+
+@settings(deadline=None)
+@given(names_and_fills())
+def test_patched_odometry_and_states_read_back_as_the_last_values_patched(case):
+    names, frame_id, all_fills = case
+    messages = SphereMessages(names, frame_id)
+    last = LastPatched(names, frame_id)
+    for time_s, position, velocity, wanted in all_fills:
+        last.fill(messages, time_s, position, velocity, wanted)
+        last.check(messages, position, velocity)
+
+
+@pytest.mark.parametrize('count', [1, 64, 257])
+def test_every_name_length_from_1_to_64_reads_back(count):
+    """Name lengths cycle 1..64, so every alignment of what follows child_frame_id occurs;
+    spheres left out of a fill keep their last values."""
+    rng = np.random.default_rng(count)
+    letters = list('abcdefghijklmnopqrstuvwxyz_0123456789')
+    names = [''.join(rng.choice(letters, i % 64 + 1)) for i in range(count)]
+    assert {len(name) for name in names} == set(range(1, min(count, 64) + 1))
+    messages = SphereMessages(names, 'odom')
+    last = LastPatched(names, 'odom')
+    for time_s, wanted in ((1.25, range(count)), (2.5, range(0, count, 3)), (3.75, [])):
+        position, velocity = rng.normal(size=(3, count)), rng.normal(size=(3, count))
+        last.fill(messages, time_s, position, velocity, list(wanted))
+        last.check(messages, position, velocity)
+
+
+def test_odometry_is_serialized_twice_per_name_length_not_per_sphere(monkeypatch):
+    calls = []
+
+    def counted(message):
+        calls.append(type(message))
+        return serialize_message(message)
+    monkeypatch.setattr(serialized, 'serialize_message', counted)
+    messages = odometry_messages([f's{i}' for i in range(1000)], 'world')  # 3 lengths
+    assert len(messages) == 1000
+    assert calls == [Odometry] * 6
+
+
+def test_without_odometry_no_per_sphere_message_is_built(monkeypatch):
+    def refuse(*args, **kwargs):
+        raise AssertionError('a per-sphere message was built')
+    monkeypatch.setattr(messages_module, 'PatchedMessages', refuse)
+    monkeypatch.setattr(messages_module, 'sphere_odometry', refuse)
+    names = ['a', 'bb', 'ccc']
+    messages = SphereMessages(names, 'world', odometry=False)
+    assert len(messages.odometry) == 0
+    with pytest.raises(IndexError):
+        messages.odometry_bytes(0)
+    position, velocity = np.arange(9.0).reshape(3, 3), -np.arange(9.0).reshape(3, 3)
+    messages.fill(4.0, position, velocity, np.ones(3))
+    assert deserialize_message(messages.states_bytes(), Float64MultiArray) == \
+        expected_states(position, velocity)
+    with pytest.raises(ValueError, match='odometry=False'):
+        messages.fill(4.0, position, velocity, np.ones(3), [1])
+
+
+def test_states_layout_names_its_dimensions():
+    messages = SphereMessages(['a', 'b'], 'world')
+    messages.fill(1.0, np.array([[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]]),
+                  np.array([[7.0, 8.0], [9.0, 10.0], [11.0, 12.0]]), np.ones(2))
+    states = deserialize_message(messages.states_bytes(), Float64MultiArray)
+    assert [(d.label, d.size, d.stride) for d in states.layout.dim] == [
+        ('spheres', 2, 12), ('position_velocity', 6, 6)]
+    assert states.layout.data_offset == 0
+    assert states.data.tolist() == [1.0, 3.0, 5.0, 7.0, 9.0, 11.0,
+                                    2.0, 4.0, 6.0, 8.0, 10.0, 12.0]
