@@ -115,6 +115,9 @@ GLOBAL_KEYS = {
     'real_time_factor': Key('number', 1.0, 'simulated seconds per wall second, 0 = as fast '
                             'as possible', *REAL_TIME_FACTOR_RANGE),
     'publish_clock': Key('bool', False, 'publish /clock with simulation time'),
+    'per_sphere_topics': Key('bool', True, "each sphere's own odom and wrench topics and "
+                             '<sphere>.<key> parameters; false: only the array topics and '
+                             'spheres.<key> array parameters, for scenes of many spheres'),
     'frame_id': Key('string', 'world', 'frame of every published pose',
                     allowed=(lambda v: v != '' and len(v) <= 256,
                              'a non-empty string of at most 256 characters')),

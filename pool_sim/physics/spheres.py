@@ -23,7 +23,8 @@ class InvalidInput(ValueError):
 # The ranges of the quantities the core takes from outside (inclusive).
 MASS_RANGE_KG = (1e-6, 1e9)  # a milligram to a large ship
 RADIUS_RANGE_M = (1e-4, 1e3)  # a tenth of a millimetre to a kilometre (it must fit the pool)
-LIFT_AREA_RANGE_M2 = (0.0, 1e6)  # none to a square kilometre of lifting surface
+# m^2: none to 10 km^2, beyond pi r^2 of the largest sphere (r = 1e3 m), which it follows
+LIFT_AREA_RANGE_M2 = (0.0, 1e7)
 FORCE_LIMIT_N = 1e9  # per component: far beyond any thruster (a Saturn V lifts off on 3.5e7)
 # How many names a message lists before it counts the rest, so that a reply or a log line
 # stays short with thousands of spheres.
