@@ -71,12 +71,26 @@ class Harness:
         return received
 
     def spin_until(self, predicate, timeout_s=10.0):
+        """Spin until predicate() holds; it is looked at between two ticks of the clock
+        thread (under the node's lock), never half-way through a step."""
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
-            if predicate():
+            if self.holds(predicate):
                 return True
             self.executor.spin_once(timeout_sec=0.01)
-        return predicate()
+        return self.holds(predicate)
+
+    def holds(self, predicate):
+        lock = getattr(getattr(self, 'sim', None), 'lock', None)
+        if lock is None:
+            return predicate()
+        with lock:
+            return predicate()
+
+    def state(self, sphere):
+        """(position, velocity) of a sphere between two ticks."""
+        with self.sim.lock:
+            return self.sim.simulation.sphere_state(sphere)
 
     def spin_for(self, seconds):
         self.spin_until(lambda: False, seconds)

@@ -64,7 +64,7 @@ def test_the_depth_keeper_holds_its_sphere_within_5_cm_after_20_s():
             {'sphere': 'ice', 'target_depth': target_depth}), **kwargs)
     with Harness({'real_time_factor': 5.0}, extra_nodes=[keeper]) as ros:
         assert ros.spin_until(lambda: ros.sim.simulation.time >= 20.0, timeout_s=30.0)
-        z = ros.sim.simulation.sphere_state('ice')[0][2]
+        z = ros.state('ice')[0][2]
         assert abs(z - (-target_depth)) < 0.05
         # The others are untouched by the keeper.
         assert ros.sim.simulation.spheres.external_force[:, :2].tolist() == [[0, 0]] * 3

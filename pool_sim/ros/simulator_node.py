@@ -1,9 +1,17 @@
-"""The pool_sim node: the physics core on a timer, its state on topics, forces and changes in.
+"""The pool_sim node: the physics core on a clock of its own, its state on topics, forces
+and changes in.
 
 Simulation time is the only clock that counts: physics steps are a fixed dt, publishing and
 wrench timeouts are in simulated seconds, and wall time only sets how fast that time runs
 (real_time_factor). A machine that cannot keep up drops the backlog beyond a bound and the
 simulation runs slower, instead of spiralling.
+
+One node, two threads. The clock thread steps and publishes; the executor that spins the
+node (rclpy.spin, a user's, a test's) runs only the inputs and services. rclpy's executor
+walks every subscription of a node each time it wakes (about 16 us each: 16 ms at 1 000
+per-sphere wrench topics), so a clock on the executor's timer paid that on every tick; on
+its own thread it pays nothing, and the executor wakes only when something arrives. One
+lock keeps the two apart: a service, a parameter change or a spawn happens between ticks.
 """
 from functools import partial
 import math
@@ -12,72 +20,82 @@ import threading
 import time
 
 import numpy as np
-from geometry_msgs.msg import PoseArray, Wrench
+from geometry_msgs.msg import PoseArray
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import SetParametersResult
-from rcl_interfaces.srv import SetParameters, SetParametersAtomically
-import rclpy
-from rclpy.clock import Clock, ClockType
-from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rcl_interfaces.srv import SetParameters
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock as ClockMessage
+from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
 from pool_sim.physics import fused, InvalidInput, Scene, Simulation
-from pool_sim.physics.scene import read_params_document
-from pool_sim.physics.spheres import named_few, NAMES_SHOWN, shortened, shown
+from pool_sim.physics.scene import read_params_document, SPHERE_KEYS
+from pool_sim.physics.spheres import named_few, NAMES_SHOWN
 from pool_sim.physics.stability import stable_at, stable_step_bound
 from pool_sim.ros.executables import run_node
+from pool_sim.ros.inputs import expired_forces, ForceInputs
 from pool_sim.ros.messages import LAST_STAMP_S, scene_markers, SphereMessages, stamp_of
-from pool_sim.ros.parameters import (declare_scene, live_key, overrides_of, params_files,
-                                     ROS_OWN_PARAMETERS, scene_from_overrides)
+from pool_sim.ros.parameters import (ARRAY_PREFIX, as_declared_types, declare_scene, describe,
+                                     is_read_only, is_ros_own, LIVE_SPHERE_KEYS,
+                                     overrides_of, params_files, plain, retable, scene_from_overrides,
+                                     sphere_parameters)
+from pool_sim.ros.services import (guard_services, KNOWN_PARAMETER_TYPES, THROTTLE_S,
+                                   unknown_type_reason)
 
 # Wall time one tick may spend stepping, in every mode, so services stay responsive.
 TICK_BUDGET_S = 0.02
 # Wall seconds between ticks: never longer, so a slow publish rate or a small
 # real_time_factor does not owe more than the catch-up bound at once; never shorter, so a
-# huge real_time_factor does not spin the timer for nothing.
+# huge real_time_factor does not spin for nothing.
 TICK_PERIOD_RANGE_S = (0.001, 0.05)
 # Requests a service queues before DDS drops one: many clients at once must all be answered.
 SERVICE_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+# The state topics keep their last message for subscribers that join later (a new RViz,
+# `ros2 topic echo --once` while paused); while paused it is also sent again this often
+# (wall s), for subscribers that ask for volatile durability.
+STATE_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                       reliability=ReliabilityPolicy.RELIABLE)
+PAUSED_REPUBLISH_S = 1.0
 # Wall time the node may fall behind and still catch up (then it drops the backlog).
 MAX_BACKLOG_WALL_S = 0.1
 # Wall seconds between the status lines in the log.
 STATUS_PERIOD_S = 5.0
-# Wall seconds between two error lines of the same kind (a step guard, a refused input).
-THROTTLE_S = 1.0
-KNOWN_PARAMETER_TYPES = frozenset(t.value for t in Parameter.Type)
-# The most entries one request may carry: every entry of a set is applied in the request's
-# callback (about 0.25 ms each), every name of a read looked up, while the clock waits.
-MAX_SET_ENTRIES = 256
-MAX_READ_NAMES = 10_000
 
 
 class PoolSimNode(Node):
-    """node_kwargs go to rclpy's Node (context, parameter_overrides, namespace, ...)."""
+    """node_kwargs go to rclpy's Node (context, parameter_overrides, namespace, ...).
+
+    lock: held by every tick of the clock thread and by every service and parameter
+    change; take it to look at or change the simulation from another thread.
+    """
 
     def __init__(self, node_name='pool_sim', default_scene=None, **node_kwargs):
-        super().__init__(node_name, **node_kwargs)
+        # Undeclared names reach our checks (which refuse them) instead of rclpy's
+        # exception: a spawn request carries the new spheres' keys, not declared yet.
+        super().__init__(node_name, allow_undeclared_parameters=True, **node_kwargs)
+        self.lock = threading.RLock()
+        self.clock_thread = None
         try:
             self._build(default_scene or Scene.default())
         except BaseException:
-            # Refused, or stopped by a signal half-way: nothing of it may outlive it (a
-            # wrench thread left spinning aborts the process at exit).
+            # Refused, or stopped by a signal half-way: nothing of it may outlive it.
             self.destroy_node()
             raise
 
     def _build(self, default_scene):
         self.scene = scene_from_overrides(overrides_of(self), default_scene)
-        declare_scene(self, self.scene)
-        self.simulation = Simulation(self.scene)
-        # The physics loop on one thread (this one, which spins the timer): the machine's
-        # other cores serve DDS, the wrench thread and the subscribers.
-        fused.use_threads(1)
         scene, names = self.scene, self.scene.sphere_names
+        self.per_sphere = scene['per_sphere_topics']
+        declare_scene(self, scene, self.per_sphere)
+        self.simulation = Simulation(scene)
+        # The physics loop on one thread (the clock's): the machine's other cores serve
+        # DDS, the executor and the subscribers.
+        fused.use_threads(1)
 
         self.real_time_factor = scene['real_time_factor']
         self.publish_period = 1.0 / scene['publish_rate_hz']
@@ -85,35 +103,29 @@ class PoolSimNode(Node):
         self.paused = False
         self._reset_timing()
 
-        self.messages = SphereMessages(names, scene['frame_id'])
-        self.pose_publisher = self.create_publisher(PoseArray, '~/poses', 10)
-        self.marker_publisher = self.create_publisher(MarkerArray, '~/markers', 10)
-        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
-                             reliability=ReliabilityPolicy.RELIABLE)
-        self.scene_marker_publisher = self.create_publisher(
-            MarkerArray, '~/scene_markers', latched)
-        # Per-sphere topics without rclpy's default QoS-event handlers: each is a waitable
-        # the executor walks on every wake-up, 2 000 of them at 1 000 spheres.
-        self.odometry_publishers = [
-            self.create_publisher(Odometry, f'~/{name}/odom', 10, event_callbacks=
-                                  PublisherEventCallbacks(use_default_callbacks=False))
-            for name in names]
+        self.messages = SphereMessages(names, scene['frame_id'], odometry=self.per_sphere)
+        self.pose_publisher = self.create_publisher(PoseArray, '~/poses', STATE_QOS)
+        self.marker_publisher = self.create_publisher(MarkerArray, '~/markers', STATE_QOS)
+        self.state_publisher = self.create_publisher(Float64MultiArray, '~/states', STATE_QOS)
+        self.scene_marker_publisher = self.create_publisher(MarkerArray, '~/scene_markers',
+                                                            STATE_QOS)
+        self.odometry_publishers = {}
+        self._add_odometry(names)
         self.clock_publisher = (self.create_publisher(ClockMessage, '/clock', 10)
                                 if scene['publish_clock'] else None)
-        # Latest wrench per sphere, filled by the WrenchInputs thread, emptied by each tick.
-        self.pending_wrenches = {}
-        self.wrench_inputs = WrenchInputs(self, names, self.pending_wrenches_put)
+        self.inputs = ForceInputs(self, names, self.per_sphere)
         self.create_service(SetParameters, '~/set_mass', partial(self._on_set_sphere, 'mass'),
                             qos_profile=SERVICE_QOS)
         self.create_service(SetParameters, '~/set_radius',
                             partial(self._on_set_sphere, 'radius'), qos_profile=SERVICE_QOS)
         self.create_service(Trigger, '~/reset', self._on_reset, qos_profile=SERVICE_QOS)
         self.create_service(SetBool, '~/pause', self._on_pause, qos_profile=SERVICE_QOS)
+        self.add_pre_set_parameters_callback(self._complete_parameters)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
+        self._planned = None  # what the last accepted parameter request changes
         guard_services(self)
 
-        self._torque_warned = set()
         # Wall seconds spent in each part, for the status line and the benchmarks.
         self.time_spent = {'physics': 0.0, 'build': 0.0, 'publish': 0.0}
         self.next_listener_check, self.odometry_wanted = 0.0, []
@@ -124,31 +136,41 @@ class PoolSimNode(Node):
         # True once simulated time reached the last second a ROS stamp holds (then paused).
         self.stamp_limit_reached = False
         self.next_recovery_log_wall = 0.0
-        self.started_wall = time.monotonic()  # both set again once set-up is done
+        self.started_wall = time.monotonic()  # all three set again once set-up is done
         self.next_status_wall = self.started_wall + STATUS_PERIOD_S
-        self.scene_marker_publisher.publish(scene_markers(
-            self.simulation.environment.pool, scene['water.surface_z'], scene['frame_id']))
+        self.paused_wall_s, self.paused_since = 0.0, None
+        self._publish_scene_markers()
         self._publish_state()
-        # A steady clock: with use_sim_time the ROS clock would wait for our own /clock.
-        # One wake-up per publish period, not per physics step: each wake-up costs rclpy's
-        # executor a walk over every subscription (one per sphere), so at 1 000 spheres
-        # waking per step left it 85 % of the time. The steps inside stay a fixed dt.
         tick_period = (max(self.simulation.max_step, self.publish_period)
                        / self.real_time_factor if self.real_time_factor > 0 else 0.0)
-        tick_period = min(max(tick_period, TICK_PERIOD_RANGE_S[0]), TICK_PERIOD_RANGE_S[1])
-        self.timer = self.create_timer(tick_period, self._on_tick,
-                                       clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.tick_period = min(max(tick_period, TICK_PERIOD_RANGE_S[0]),
+                               TICK_PERIOD_RANGE_S[1])
         self._warn_if_unstable()
         self.get_logger().info(
             f'{len(names)} spheres ({named_few(names)}); {scene["integrator"]} at '
             f'{scene["physics_rate_hz"]:g} Hz, publishing at {scene["publish_rate_hz"]:g} Hz '
             f'of simulated time, real_time_factor {self.real_time_factor:g}; effects: '
-            f'{", ".join(scene["effects"]) or "none"}')
+            f'{", ".join(scene["effects"]) or "none"}; per-sphere topics '
+            f'{"on" if self.per_sphere else "off"}')
         # Load the compiled kernel on a throwaway copy now, and start the clock after it and
         # after the set-up above: neither is the node falling behind.
-        Simulation(self.scene, initial_spheres=self.simulation.spheres.copy()).step()
+        Simulation(scene, initial_spheres=self.simulation.spheres.copy()).step()
         self.last_wall = self.started_wall = time.monotonic()
         self.next_status_wall = self.started_wall + STATUS_PERIOD_S
+        self.paused_wall_s, self.paused_since = 0.0, None
+        self.next_paused_publish = 0.0
+        self.clock_stop, self.clock_wake = threading.Event(), threading.Event()
+        self.clock_thread = threading.Thread(target=self._run_clock, name='pool_sim_clock',
+                                             daemon=True)
+        self.clock_thread.start()
+
+    def _add_odometry(self, names):
+        if not self.per_sphere:
+            return
+        no_default_events = PublisherEventCallbacks(use_default_callbacks=False)
+        for name in names:
+            self.odometry_publishers[name] = self.create_publisher(
+                Odometry, f'~/{name}/odom', 10, event_callbacks=no_default_events)
 
     def _warn_if_unstable(self, indices=None):
         """Warn when the integrator is unstable at the configured rate for the scene's
@@ -170,20 +192,44 @@ class PoolSimNode(Node):
                 f'({1.0 / bound if bound > 0 else math.inf:.4g} Hz or more); '
                 'linearly_implicit_euler is stable at any rate')
 
+    # -- the clock thread --------------------------------------------------------------------
+
+    def _run_clock(self):
+        while not self.clock_stop.is_set():
+            try:
+                with self.lock:
+                    self._on_tick()
+            except Exception as error:  # a fault must not stop the clock: say it, go on
+                if not self.context.ok():
+                    return
+                self.get_logger().error(f'a tick raised {type(error).__name__}: {error}',
+                                        throttle_duration_sec=THROTTLE_S)
+            self.clock_wake.wait(self.tick_period)
+            self.clock_wake.clear()
+
+    def destroy_node(self):
+        if self.clock_thread is not None:
+            self.clock_stop.set()
+            self.clock_wake.set()
+            self.clock_thread.join(timeout=5.0)
+        return super().destroy_node()
+
     # -- time --------------------------------------------------------------------------------
 
     def _reset_timing(self):
-        count = len(self.scene.sphere_names)
         self.next_publish_time = 0.0
         self.backlog_s = 0.0
         self.last_wall = time.monotonic()
-        self.wrench_time = np.full(count, -math.inf)
+        self.wrench_time = np.full(len(self.scene.sphere_names), -math.inf)
 
     def _on_tick(self):
         now = time.monotonic()
         elapsed, self.last_wall = now - self.last_wall, now
-        self._apply_pending_wrenches()
+        self.inputs.apply(self.simulation, self.wrench_time)
         if self.paused:
+            if now >= self.next_paused_publish:  # for subscribers that joined meanwhile
+                self.next_paused_publish = now + PAUSED_REPUBLISH_S
+                self._publish_state()
             return
         dt = self.simulation.max_step
         stepped = False
@@ -211,16 +257,13 @@ class PoolSimNode(Node):
         sim = self.simulation
         if sim.time + sim.max_step > LAST_STAMP_S:
             # builtin_interfaces/Time counts seconds in an int32: 68 years of simulated time.
-            self.paused = self.stamp_limit_reached = True
+            self._set_paused(True)
+            self.stamp_limit_reached = True
             self.get_logger().error(
                 f'simulated time reached {sim.time:.0f} s, the last a ROS time stamp can '
                 'carry (2^31 s): paused; ~/reset starts again from 0')
             return False
-        if self.wrench_timeout > 0.0:
-            expired = sim.time - self.wrench_time > self.wrench_timeout
-            if expired.any():
-                sim.spheres.external_force[:, expired] = 0.0
-                self.wrench_time[expired] = math.inf
+        expired_forces(sim, self.wrench_time, self.wrench_timeout)
         started = time.perf_counter()
         sim.step()
         self.time_spent['physics'] += time.perf_counter() - started
@@ -233,6 +276,11 @@ class PoolSimNode(Node):
                 self.next_publish_time = sim.time + self.publish_period
         return True
 
+    def _publish_scene_markers(self):
+        self.scene_marker_publisher.publish(scene_markers(
+            self.simulation.environment.pool, self.scene['water.surface_z'],
+            self.scene['frame_id']))
+
     def _publish_state(self):
         started = time.perf_counter()
         spheres = self.simulation.spheres
@@ -242,8 +290,9 @@ class PoolSimNode(Node):
         built = time.perf_counter()
         self.pose_publisher.publish(self.messages.poses.to_bytes())
         self.marker_publisher.publish(self.messages.markers.to_bytes())
+        self.state_publisher.publish(self.messages.states_bytes())
         for i in wanted:
-            self.odometry_publishers[i].publish(self.messages.odometry[i])
+            self.odometry_publishers[spheres.names[i]].publish(self.messages.odometry_bytes(i))
         self.time_spent['build'] += built - started
         self.time_spent['publish'] += time.perf_counter() - built
         self.publishes += 1
@@ -253,12 +302,14 @@ class PoolSimNode(Node):
 
     def _odometry_listened_to(self):
         """Indices of spheres whose odometry has subscribers, looked up every half wall
-        second: odometry is a message per sphere, built only where someone listens."""
+        second: odometry is a message per sphere, filled only where someone listens."""
         now = time.monotonic()
         if now >= self.next_listener_check:
             self.next_listener_check = now + 0.5
-            self.odometry_wanted = [i for i, publisher in enumerate(self.odometry_publishers)
-                                    if publisher.get_subscription_count() > 0]
+            publishers = self.odometry_publishers
+            self.odometry_wanted = [
+                i for i, name in enumerate(self.simulation.spheres.names)
+                if name in publishers and publishers[name].get_subscription_count() > 0]
         return self.odometry_wanted
 
     def _report_recovered(self):
@@ -280,274 +331,320 @@ class PoolSimNode(Node):
         self.get_logger().info(f't={self.simulation.time:.1f} s: '
                                f'{named_few(heights, spheres.count)}. {self.time_report()}')
 
+    def running_wall_s(self) -> float:
+        """Wall seconds since start, less the time spent paused."""
+        now = time.monotonic()
+        paused = self.paused_wall_s + (now - self.paused_since if self.paused_since else 0.0)
+        return max(now - self.started_wall - paused, 1e-9)
+
     def time_report(self) -> str:
-        """Where the wall time went since start; part of the status line every 5 s."""
-        wall = max(time.monotonic() - self.started_wall, 1e-9)
+        """Where the wall time went since start; part of the status line every 5 s. The
+        real-time factor counts running time only: paused time is no falling behind."""
+        wall = self.running_wall_s()
         parts = ', '.join(f'{name} {seconds / wall:.1%}'
                           for name, seconds in self.time_spent.items())
-        return (f'{self.simulated_s:.2f} s simulated in {wall:.2f} s '
+        return (f'{self.simulated_s:.2f} s simulated in {wall:.2f} s running '
                 f'(real-time factor {self.simulated_s / wall:.3f}), {self.steps_taken} '
                 f'steps, {self.publishes} publishes, {self.given_up_s:.2f} s given up to '
                 f'the catch-up bound, {self.simulation.recoveries} put-backs by the step '
                 f'guard; wall time in {parts}')
 
-    # -- inputs ------------------------------------------------------------------------------
+    def _set_paused(self, paused: bool):
+        now = time.monotonic()
+        if paused and not self.paused:
+            self.paused_since = now
+            self.next_paused_publish = now + PAUSED_REPUBLISH_S
+        elif not paused and self.paused:
+            self.paused_wall_s += now - self.paused_since
+            self.paused_since = None
+            self.last_wall = now  # paused time is not owed
+        self.paused = paused
 
-    def pending_wrenches_put(self, name, message):
-        """Called on the WrenchInputs thread: only records; the tick applies it."""
-        self.pending_wrenches[name] = message
+    # -- parameters: one path for ros2 param set, set_mass, set_radius, spawn and remove -----
 
-    def _apply_pending_wrenches(self):
-        # popitem and the other thread's setitem are each atomic: nothing is lost and the
-        # dict is never walked while it changes (walking it raised if a wrench landed).
-        pending = self.pending_wrenches
-        while pending:
-            name, message = pending.popitem()
-            self._on_wrench(name, message)
-
-    def destroy_node(self):
-        wrench_inputs = getattr(self, 'wrench_inputs', None)
-        if wrench_inputs is not None:
-            wrench_inputs.stop()
-        return super().destroy_node()
-
-    def _on_wrench(self, name, message):
-        force = (message.force.x, message.force.y, message.force.z)
-        try:
-            self.simulation.set_external_force(name, force)
-        except InvalidInput as error:
-            self.get_logger().warning(f'{name}/wrench: refused: {error}; keeping the last',
-                                      throttle_duration_sec=THROTTLE_S)
-            return
-        torque = (message.torque.x, message.torque.y, message.torque.z)
-        if any(torque) and name not in self._torque_warned:
-            self._torque_warned.add(name)
-            self.get_logger().warning(
-                f'{name}/wrench: torque {torque} ignored: a point mass cannot turn')
-        self.wrench_time[self.simulation.spheres.lookup(name)] = self.simulation.time
+    def _complete_parameters(self, parameters):
+        """Before rclpy's checks: integers for doubles become doubles, and a radius change
+        brings the lift area along where the area follows the radius."""
+        parameters = as_declared_types(parameters)
+        given = {p.name for p in parameters}
+        spheres = self.simulation.spheres
+        extra = []
+        for parameter in parameters:
+            value = parameter.value
+            if parameter.type_ not in (Parameter.Type.DOUBLE, Parameter.Type.DOUBLE_ARRAY):
+                continue
+            if self.per_sphere and parameter.name.endswith('.radius'):
+                sphere = parameter.name[:-len('.radius')]
+                i = spheres.index.get(sphere)
+                if (i is not None and spheres.lift_area_follows_radius[i]
+                        and f'{sphere}.lift_area' not in given and math.isfinite(value)):
+                    extra.append(Parameter(f'{sphere}.lift_area', value=math.pi * value**2))
+            elif (not self.per_sphere and parameter.name == f'{ARRAY_PREFIX}radius'
+                  and f'{ARRAY_PREFIX}lift_area' not in given
+                  and 'sphere_names' not in given and len(value) == spheres.count):
+                radius = np.asarray(value, dtype=float)
+                area = np.where(spheres.lift_area_follows_radius, math.pi * radius**2,
+                                spheres.lift_area)
+                extra.append(Parameter(f'{ARRAY_PREFIX}lift_area', value=area.tolist()))
+        return parameters + extra
 
     def _check_parameters(self, parameters):
-        """One validation path for `ros2 param set`, set_mass and set_radius."""
-        for parameter in parameters:
-            key = live_key(parameter.name, self.scene.sphere_names)
-            if parameter.name in ROS_OWN_PARAMETERS:
-                continue
-            if not key:
-                return SetParametersResult(successful=False, reason=(
-                    f'{parameter.name}: cannot change while running; only <sphere>.mass and '
-                    '<sphere>.radius can. Set it in a params file and restart.'))
-            sphere = parameter.name.rpartition('.')[0]
+        """Accept or refuse a whole request; what it changes is applied after rclpy stores
+        it (_apply_parameters)."""
+        with self.lock:
             try:
-                if key == 'mass':
-                    self.simulation.spheres.check_mass(sphere, parameter.value)
-                else:
-                    self.simulation.spheres.check_radius(
-                        sphere, parameter.value, self.simulation.environment.pool)
+                self._planned = self._plan(parameters)
             except InvalidInput as error:
+                self._planned = None
                 return SetParametersResult(successful=False, reason=str(error))
         return SetParametersResult(successful=True)
 
+    def _plan(self, parameters):
+        values = {p.name: plain(p.value) for p in parameters if not is_ros_own(p.name)}
+        if 'sphere_names' in values and tuple(values['sphere_names'] or ()) != \
+                self.simulation.spheres.names:
+            return self._plan_spheres(values)
+        return {'scene': None, 'live': self._live_changes(values, self.scene)}
+
+    def _live_changes(self, values, scene):
+        """[(sphere, key, value)] of a request's live keys, each checked; InvalidInput for
+        anything that cannot change while running."""
+        spheres, pool = self.simulation.spheres, self.simulation.environment.pool
+        changes = []
+        for name, value in values.items():
+            if name == 'sphere_names':
+                continue
+            if not self.per_sphere and name.startswith(ARRAY_PREFIX):
+                changes += self._live_array_changes(name, value, scene)
+                continue
+            sphere, _, key = name.rpartition('.')
+            if sphere not in spheres.index or key not in SPHERE_KEYS or not self.per_sphere:
+                raise InvalidInput(unknown_key_reason(name, self.per_sphere, spheres.names))
+            if key not in LIVE_SPHERE_KEYS:
+                raise InvalidInput(f'{name}: cannot change while running')
+            changes.append((sphere, key, check_live(spheres, pool, sphere, key, value)))
+        return changes
+
+    def _live_array_changes(self, name, value, scene):
+        key = name[len(ARRAY_PREFIX):]
+        if key not in SPHERE_KEYS:
+            raise InvalidInput(unknown_key_reason(name, False, scene.sphere_names))
+        spheres, pool = self.simulation.spheres, self.simulation.environment.pool
+        rows = as_rows(name, value, spheres.count, SPHERE_KEYS[key].kind == 'vector')
+        if key not in LIVE_SPHERE_KEYS:
+            if not np.array_equal(rows, scene.sphere_array(key)):
+                raise InvalidInput(f'{name}: cannot change while running (only '
+                                   f'{", ".join(ARRAY_PREFIX + k for k in LIVE_SPHERE_KEYS)} '
+                                   'can, and sphere_names, to add and remove spheres)')
+            return []
+        changed = np.flatnonzero(~(rows == getattr(spheres, key)))  # NaN counts as changed
+        return [(spheres.names[i], key, check_live(spheres, pool, spheres.names[i], key,
+                                                   float(rows[i]))) for i in changed]
+
+    def _plan_spheres(self, values):
+        """Spawn and remove: the new scene, and the live changes of the spheres kept. The
+        new scene keeps the kept spheres' initial values (reset goes back to them); keys of
+        a kept sphere in the request are live changes, as in any other request."""
+        names = values['sphere_names']
+        if names is None or names == []:
+            raise InvalidInput('sphere_names: the node needs at least one sphere, got []')
+        if not isinstance(names, (list, tuple)) or not all(isinstance(n, str) for n in names):
+            raise InvalidInput(f'sphere_names: expected a list of strings, got {names!r}')
+        names = tuple(names)
+        index = self.simulation.spheres.index
+        given, live = {}, {}
+        if self.per_sphere:
+            for name, value in values.items():
+                sphere = name.rpartition('.')[0]
+                if name == 'sphere_names':
+                    continue
+                if sphere not in names:
+                    raise InvalidInput(unknown_key_reason(name, True, names))
+                (live if sphere in index else given)[name] = value
+        else:
+            initial = {name: i for i, name in enumerate(self.scene.sphere_names)}
+            kept = [(i, initial[name]) for i, name in enumerate(names) if name in initial]
+            for name, value in values.items():
+                if name == 'sphere_names':
+                    continue
+                key = name[len(ARRAY_PREFIX):]
+                if not name.startswith(ARRAY_PREFIX) or key not in SPHERE_KEYS:
+                    raise InvalidInput(unknown_key_reason(name, False, names))
+                rows = as_rows(name, value, len(names), SPHERE_KEYS[key].kind == 'vector')
+                for new, old in kept:
+                    if key in LIVE_SPHERE_KEYS:
+                        if not rows[new] == getattr(self.simulation.spheres, key)[
+                                index[names[new]]]:
+                            live[f'{names[new]}.{key}'] = float(rows[new])
+                    elif not np.array_equal(rows[new], self.scene.sphere_array(key)[old]):
+                        raise InvalidInput(f'{name}: {names[new]} (index {new}) is kept and '
+                                           'cannot change it while running')
+                    rows[new] = self.scene.sphere_array(key)[old]
+                given[name] = rows.ravel().tolist()
+        scene = self.scene.with_spheres(names, given)
+        spheres, pool = self.simulation.spheres, self.simulation.environment.pool
+        changes = []
+        for name, value in live.items():
+            sphere, _, key = name.rpartition('.')
+            if key not in LIVE_SPHERE_KEYS:
+                raise InvalidInput(f'{name}: cannot change while running')
+            changes.append((sphere, key, check_live(spheres, pool, sphere, key, value)))
+        return {'scene': scene, 'live': changes}
+
     def _apply_parameters(self, parameters):
-        changed = []
-        for parameter in parameters:
-            key = live_key(parameter.name, self.scene.sphere_names)
-            sphere = parameter.name.rpartition('.')[0]
-            if key == 'mass':
-                self.simulation.set_mass(sphere, parameter.value)
-            elif key == 'radius':
-                self.simulation.set_radius(sphere, parameter.value)
-            if key:
-                changed.append(self.simulation.spheres.lookup(sphere))
-        if changed:
-            self._warn_if_unstable(sorted(set(changed)))
+        with self.lock:
+            planned, self._planned = self._planned, None
+            if planned is None:
+                return
+            if planned['scene'] is not None:
+                self._change_spheres(planned['scene'])
+            touched = set()
+            for sphere, key, value in planned['live']:
+                getattr(self.simulation, f'set_{key}')(sphere, value)
+                touched.add(self.simulation.spheres.lookup(sphere))
+            if touched:
+                self._warn_if_unstable(sorted(touched))
+
+    def _change_spheres(self, scene):
+        """Spawn and remove: the simulation, the topics and the parameter table follow."""
+        before = self.simulation.spheres.names
+        after = scene.sphere_names
+        removed = [name for name in before if name not in set(after)]
+        added = [name for name in after if name not in set(before)]
+        wrench_time = dict(zip(before, self.wrench_time.tolist()))
+        self.simulation.change_spheres(scene)
+        self.scene = scene
+        self.wrench_time = np.array([wrench_time.get(name, -math.inf) for name in after])
+        self.inputs.remove_spheres(removed)
+        self.inputs.add_spheres(added)
+        for name in removed:
+            publisher = self.odometry_publishers.pop(name, None)
+            if publisher is not None:
+                self.destroy_publisher(publisher)
+        self._add_odometry(added)
+        self.messages = SphereMessages(after, scene['frame_id'], odometry=self.per_sphere)
+        self.next_listener_check = 0.0
+        if self.per_sphere:
+            gone = [f'{name}.{key}' for name in removed for key in SPHERE_KEYS]
+            new = [(name, value, describe(name, is_read_only(name)))
+                   for name, value, _ in sphere_parameters(scene, True, names=added)]
+            retable(self, removed=gone, declared=new)
+        else:
+            live = {key: getattr(self.simulation.spheres, key) for key in LIVE_SPHERE_KEYS}
+            retable(self, declared=sphere_parameters(scene, False, live=live))
+        self._publish_state()
+        self.get_logger().info(
+            f'spheres now {named_few(after)}: added {named_few(added) or "none"}, removed '
+            f'{named_few(removed) or "none"}')
+        if added:
+            self._warn_if_unstable([self.simulation.spheres.lookup(name) for name in added])
 
     def _on_set_sphere(self, key, request, response):
-        """Each entry: name = sphere, value = new mass (kg) or radius (m); a result each."""
+        """Each entry: name = sphere, value = new mass (kg) or radius (m); a result each.
+        Checked entry by entry, then applied as one parameter change."""
+        results, accepted = [], {}
         for entry in request.parameters:
-            response.results.append(self._set_sphere_entry(key, entry))
+            result = self._check_sphere_entry(key, entry, accepted)
+            results.append(result)
+        if accepted:
+            if self.per_sphere:
+                parameters = [Parameter(f'{name}.{key}', value=value)
+                              for name, value in accepted.items()]
+            else:
+                values = getattr(self.simulation.spheres, key).copy()
+                for name, value in accepted.items():
+                    values[self.simulation.spheres.index[name]] = value
+                parameters = [Parameter(f'{ARRAY_PREFIX}{key}', value=values.tolist())]
+            outcome = self.set_parameters_atomically(parameters)
+            results = [outcome if result is None else result for result in results]
+        response.results = results
         return response
 
-    def _set_sphere_entry(self, key, entry) -> SetParametersResult:
-        try:
-            self.simulation.spheres.lookup(entry.name)
-        except InvalidInput as error:
-            return SetParametersResult(successful=False, reason=str(error))
+    def _check_sphere_entry(self, key, entry, accepted):
+        """A refusal, or None with the value put in accepted[name]."""
         if entry.value.type not in KNOWN_PARAMETER_TYPES:
             return SetParametersResult(successful=False, reason=unknown_type_reason(entry))
-        value = parameter_value_to_python(entry.value)
-        if isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)  # kept a double, so the parameter keeps one type
-        parameter = Parameter(f'{entry.name}.{key}', value=value)
-        # Our checks first, so the reason is ours; then rclpy's path, which checks again.
-        checked = self._check_parameters([parameter])
-        if not checked.successful:
-            return checked
-        return self.set_parameters([parameter])[0]
+        spheres = self.simulation.spheres
+        try:
+            spheres.lookup(entry.name)
+            value = parameter_value_to_python(entry.value)
+            if isinstance(value, int) and not isinstance(value, bool):
+                value = float(value)  # kept a double, so the parameter keeps one type
+            value = check_live(spheres, self.simulation.environment.pool, entry.name, key,
+                               value)
+        except InvalidInput as error:
+            return SetParametersResult(successful=False, reason=str(error))
+        accepted[entry.name] = value
+        return None
 
     def _on_reset(self, request, response):
-        self.pending_wrenches.clear()  # forces sent before the reset do not outlive it
-        # Only the parameters a live change moved go back (each set costs ~0.25 ms).
-        changed = [Parameter(f'{name}.{key}', value=self.scene[f'{name}.{key}'])
-                   for name in self.scene.sphere_names for key in ('mass', 'radius')
-                   if self.get_parameter(f'{name}.{key}').value != self.scene[f'{name}.{key}']]
-        self.simulation.reset()
-        self._reset_timing()
-        if self.stamp_limit_reached:  # paused at the end of ROS time stamps: go on again
-            self.paused = self.stamp_limit_reached = False
-        if changed:
-            self.set_parameters_atomically(changed)
-        self._publish_state()
-        self.next_publish_time = self.publish_period
+        with self.lock:
+            self.inputs.clear()  # forces sent before the reset do not outlive it
+            spheres = self.simulation.spheres
+            live = {key: getattr(spheres, key).copy() for key in LIVE_SPHERE_KEYS}
+            self.simulation.reset()
+            self._reset_timing()
+            if self.stamp_limit_reached:  # paused at the end of ROS time stamps: go on
+                self._set_paused(False)
+                self.stamp_limit_reached = False
+            # Only the parameters a live change moved go back (each set costs ~0.25 ms).
+            changed = []
+            for key, before in live.items():
+                initial = getattr(self.simulation.spheres, key)
+                moved = np.flatnonzero(before != initial)
+                if moved.size and self.per_sphere:
+                    changed += [Parameter(f'{spheres.names[i]}.{key}', value=float(initial[i]))
+                                for i in moved]
+                elif moved.size:
+                    changed.append(Parameter(f'{ARRAY_PREFIX}{key}', value=initial.tolist()))
+            if changed:
+                self.set_parameters_atomically(changed)
+            self._publish_state()
+            self.next_publish_time = self.publish_period
         response.success, response.message = True, 'back to the initial scene at time 0'
         return response
 
     def _on_pause(self, request, response):
-        if not request.data and self.stamp_limit_reached:
-            response.success = False
-            response.message = ('paused at the last time a ROS stamp can carry (2^31 s); '
-                                'call ~/reset to start again from 0')
-            return response
-        self.paused = bool(request.data)
+        with self.lock:
+            if not request.data and self.stamp_limit_reached:
+                response.success = False
+                response.message = ('paused at the last time a ROS stamp can carry (2^31 s); '
+                                    'call ~/reset to start again from 0')
+                return response
+            self._set_paused(bool(request.data))
         response.success = True
         response.message = 'paused' if self.paused else 'running'
         return response
 
 
-def refusal(service_type, request, reason):
-    """A response of `service_type` that refuses `request` with `reason`."""
-    response = service_type.Response()
-    if service_type is SetParameters:
-        # One result object for every entry: a huge request costs one, not thousands.
-        response.results = [SetParametersResult(successful=False, reason=reason)] * len(
-            request.parameters)
-    elif service_type is SetParametersAtomically:
-        response.result = SetParametersResult(successful=False, reason=reason)
-    elif hasattr(response, 'success'):
-        response.success, response.message = False, reason
-    return response
+def check_live(spheres, pool, sphere, key, value) -> float:
+    """A live key's new value, checked as the core checks it; InvalidInput if refused."""
+    if key == 'mass':
+        return spheres.check_mass(sphere, value)
+    if key == 'radius':
+        return spheres.check_radius(sphere, value, pool)
+    return spheres.check_lift_area(sphere, value)
 
 
-def unknown_type_reason(entry):
-    return (f'{shortened(entry.name)}: value of unknown type code {entry.value.type} '
-            '(ROS parameter types are 0 to 9)')
+def as_rows(name, value, count, is_vector) -> np.ndarray:
+    """A spheres.<key> array as (count,) or (count, 3) floats, or InvalidInput."""
+    width = 3 if is_vector else 1
+    try:
+        rows = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f'{name}: expected {width * count} numbers, got {value!r:.60}')
+    if rows.ndim != 1 or rows.size != width * count:
+        raise InvalidInput(f'{name}: expected {width * count} values ({width} per sphere in '
+                           f'sphere_names), got {rows.size}')
+    return rows.reshape(count, 3) if is_vector else rows
 
 
-def guard_services(node):
-    """Every service of `node`, rclpy's parameter services too, answers every request.
-
-    rclpy's set_parameters services raise on a value of an unknown type code and the
-    exception ends the node: here such an entry is refused with a reason (and, atomically,
-    the whole request). Whatever else a callback raises is logged and refused: a request
-    never takes the node down.
-    """
-    for service in node.services:
-        callback, service_type = service.callback, service.srv_type
-        if service_type is SetParameters and service.srv_name.endswith('/set_parameters'):
-            callback = _per_entry_with_known_types(callback)
-        elif service_type is SetParametersAtomically:
-            callback = _atomic_with_known_types(callback)
-        callback = _bounded(node, service.srv_name, service_type, callback)
-        service.callback = _refusing_on_error(node, service.srv_name, service_type, callback)
-
-
-def _request_size(request):
-    """(entries, the most allowed) of a request: values to set, or names to read."""
-    if hasattr(request, 'parameters'):
-        return len(request.parameters), MAX_SET_ENTRIES
-    for field in ('names', 'prefixes'):
-        if hasattr(request, field):
-            return len(getattr(request, field)), MAX_READ_NAMES
-    return 0, 1
-
-
-def _bounded(node, name, service_type, callback):
-    """Refuses, as a whole, a request with more entries than one callback may take."""
-    def bounded(request, response):
-        size, most = _request_size(request)
-        if size <= most:
-            return callback(request, response)
-        reason = f'{name}: {size} entries in one request; at most {most}: send them in parts'
-        node.get_logger().warning(reason, throttle_duration_sec=THROTTLE_S)
-        return refusal(service_type, request, reason)
-    return bounded
-
-
-def _per_entry_with_known_types(callback):
-    def set_parameters(request, response):
-        for entry in request.parameters:
-            if entry.value.type in KNOWN_PARAMETER_TYPES:
-                one = callback(SetParameters.Request(parameters=[entry]),
-                               SetParameters.Response())
-                response.results.extend(one.results)
-            else:
-                response.results.append(SetParametersResult(
-                    successful=False, reason=unknown_type_reason(entry)))
-        return response
-    return set_parameters
-
-
-def _atomic_with_known_types(callback):
-    def set_parameters_atomically(request, response):
-        for entry in request.parameters:
-            if entry.value.type not in KNOWN_PARAMETER_TYPES:
-                response.result = SetParametersResult(
-                    successful=False, reason=unknown_type_reason(entry) + '; nothing was set')
-                return response
-        return callback(request, response)
-    return set_parameters_atomically
-
-
-def _refusing_on_error(node, name, service_type, callback):
-    def guarded(request, response):
-        try:
-            return callback(request, response)
-        except Exception as error:  # the last line: log it, refuse it, keep running
-            reason = f'{name}: the request raised {type(error).__name__}: {shown(str(error))}'
-            node.get_logger().error(reason, throttle_duration_sec=THROTTLE_S)
-            return refusal(service_type, request, reason)
-    return guarded
-
-
-class WrenchInputs:
-    """The `~/<sphere>/wrench` subscriptions, on a helper node spun by a thread of its own.
-
-    rclpy's executor walks every subscription each time it wakes. With one per sphere on the
-    simulator's own node, every timer tick paid for all of them (16 ms at 1 000 spheres);
-    here they cost something only when a wrench arrives. Callbacks only hand the message
-    over (`deliver(name, message)`); the simulator applies it on its own thread.
-    """
-
-    def __init__(self, simulator, names, deliver):
-        self.node = Node(f'{simulator.get_name()}_wrench_inputs',
-                         namespace=simulator.get_namespace(), context=simulator.context,
-                         start_parameter_services=False)
-        no_default_events = SubscriptionEventCallbacks(use_default_callbacks=False)
-        for name in names:
-            topic = simulator.resolve_topic_name(f'~/{name}/wrench')
-            self.node.create_subscription(Wrench, topic, partial(deliver, name), 10,
-                                          event_callbacks=no_default_events)
-        # Woken only by a wrench or by stop(): each wake-up walks every subscription while
-        # holding the GIL (40 ms at 5 000 spheres), so it must not poll.
-        self.stop_signal = self.node.create_guard_condition(lambda: None)
-        self.executor = SingleThreadedExecutor(context=simulator.context)
-        self.executor.add_node(self.node)
-        self.running = True
-        self.thread = threading.Thread(target=self._spin, name='wrench_inputs', daemon=True)
-        self.thread.start()
-
-    def _spin(self):
-        try:
-            while self.running and self.executor.context.ok():
-                self.executor.spin_once(timeout_sec=None)
-        except (ExternalShutdownException, rclpy.executors.ShutdownException):
-            pass
-
-    def stop(self):
-        self.running = False
-        self.stop_signal.trigger()
-        self.thread.join(timeout=5.0)
-        self.executor.shutdown()
-        self.node.destroy_node()
+def unknown_key_reason(name, per_sphere, sphere_names) -> str:
+    form = ('<sphere>.mass, <sphere>.radius and <sphere>.lift_area' if per_sphere else
+            ', '.join(ARRAY_PREFIX + key for key in LIVE_SPHERE_KEYS))
+    return (f'{name}: not a parameter of this node (spheres: {named_few(sphere_names)}); '
+            f'while running {form} can change, and sphere_names (with the new spheres\' '
+            'keys in the same request) adds and removes spheres')
 
 
 def main(args=None):

@@ -1,0 +1,152 @@
+"""External forces into the simulation: every input topic, one way in.
+
+- `~/wrench` (WrenchStamped): the sphere named by header.frame_id, any number of publishers;
+- `~/forces` (Float64MultiArray): every sphere at once, n x 3 N in sphere_names order;
+- `~/<sphere>/wrench` (Wrench): one sphere, while per_sphere_topics is on.
+
+Callbacks run on the executor's thread and only record the message (the latest per sphere,
+the latest array); the clock thread applies them, in the order they came, at the start of
+its next tick. Every input is checked alike (finite, within the force range) and refreshes
+the sphere's wrench timeout alike.
+"""
+from functools import partial
+import math
+import threading
+
+import numpy as np
+from geometry_msgs.msg import Wrench, WrenchStamped
+from rclpy.event_handler import SubscriptionEventCallbacks
+from std_msgs.msg import Float64MultiArray
+
+from pool_sim.physics import InvalidInput
+from pool_sim.physics.spheres import check_external_force, FORCE_LIMIT_N, shortened
+
+THROTTLE_S = 1.0
+ALL_SPHERES = object()  # the pending key of a ~/forces array
+
+
+class ForceInputs:
+    """The input subscriptions of `node` and the forces waiting for the next tick."""
+
+    def __init__(self, node, names, per_sphere_topics):
+        self.node = node
+        self.lock = threading.Lock()
+        self.pending = {}  # sphere name or ALL_SPHERES -> the latest message, arrival order
+        self.torque_warned = set()
+        # Per-sphere topics without rclpy's default QoS-event handlers: each would be one
+        # more waitable the executor walks on every wake-up.
+        self.no_default_events = SubscriptionEventCallbacks(use_default_callbacks=False)
+        node.create_subscription(WrenchStamped, '~/wrench', self._put_stamped, 100,
+                                 event_callbacks=self.no_default_events)
+        node.create_subscription(Float64MultiArray, '~/forces', self._put_forces, 10,
+                                 event_callbacks=self.no_default_events)
+        self.per_sphere_topics = per_sphere_topics
+        self.per_sphere = {}
+        self.add_spheres(names)
+
+    # -- subscriptions -----------------------------------------------------------------------
+
+    def add_spheres(self, names):
+        if not self.per_sphere_topics:
+            return
+        for name in names:
+            self.per_sphere[name] = self.node.create_subscription(
+                Wrench, f'~/{name}/wrench', partial(self._put, name), 10,
+                event_callbacks=self.no_default_events)
+
+    def remove_spheres(self, names):
+        with self.lock:
+            for name in names:
+                self.pending.pop(name, None)
+            self.pending.pop(ALL_SPHERES, None)  # sized for the old spheres
+        for name in names:
+            subscription = self.per_sphere.pop(name, None)
+            if subscription is not None:
+                self.node.destroy_subscription(subscription)
+
+    def _put(self, key, message):
+        with self.lock:
+            self.pending.pop(key, None)  # re-inserted last: applied in arrival order
+            self.pending[key] = message
+
+    def _put_stamped(self, message):
+        self._put(message.header.frame_id, message.wrench)
+
+    def _put_forces(self, message):
+        self._put(ALL_SPHERES, message)
+
+    def clear(self):
+        with self.lock:
+            self.pending = {}
+
+    # -- on the clock thread -----------------------------------------------------------------
+
+    def apply(self, simulation, wrench_time):
+        """Apply what came since the last tick; wrench_time[i] = when sphere i's force was
+        last set (simulated s), for the timeout."""
+        with self.lock:
+            pending, self.pending = self.pending, {}
+        for key, message in pending.items():
+            if key is ALL_SPHERES:
+                self._apply_forces(simulation, wrench_time, message)
+            else:
+                self._apply_wrench(simulation, wrench_time, key, message)
+
+    def _warn(self, text):
+        self.node.get_logger().warning(text, throttle_duration_sec=THROTTLE_S)
+
+    def _apply_wrench(self, simulation, wrench_time, name, message):
+        force = (message.force.x, message.force.y, message.force.z)
+        try:
+            index = simulation.spheres.lookup(name)
+            simulation.set_external_force(name, force)
+        except InvalidInput as error:
+            self._warn(f'{shortened(name)}/wrench: refused: {error}; keeping the last')
+            return
+        torque = (message.torque.x, message.torque.y, message.torque.z)
+        if any(torque) and name not in self.torque_warned:
+            self.torque_warned.add(name)
+            self.node.get_logger().warning(
+                f'{name}/wrench: torque {torque} ignored: a point mass cannot turn')
+        wrench_time[index] = simulation.time
+
+    def _apply_forces(self, simulation, wrench_time, message):
+        count = simulation.spheres.count
+        try:
+            forces = forces_of(message, count, simulation.spheres.names.__getitem__)
+        except InvalidInput as error:
+            self._warn(f'forces: refused: {error}; keeping the last')
+            return
+        simulation.spheres.external_force[:] = forces.T
+        wrench_time[:] = simulation.time
+
+
+def forces_of(message, count, sphere_name=str) -> np.ndarray:
+    """The (count, 3) forces in N of a Float64MultiArray, or InvalidInput: n x 3 values in
+    sphere_names order; a layout, when given, must say the same. sphere_name(i) names
+    row i in a refusal."""
+    data = np.asarray(message.data, dtype=float)
+    dims = [(d.size, d.stride) for d in message.layout.dim]
+    expected = f'{count} x 3 = {3 * count} values (x, y, z per sphere in sphere_names order)'
+    if data.size != 3 * count:
+        raise InvalidInput(f'expected {expected}, got {data.size}')
+    if message.layout.data_offset != 0 or (dims and [size for size, _ in dims] != [count, 3]):
+        raise InvalidInput(f'expected {expected} with layout dim sizes [{count}, 3] '
+                           f'(or no layout) and data_offset 0, got sizes '
+                           f'{[size for size, _ in dims]}, data_offset '
+                           f'{message.layout.data_offset}')
+    forces = data.reshape(count, 3)
+    bad = ~(np.isfinite(forces) & (np.abs(forces) <= FORCE_LIMIT_N)).all(axis=1)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        check_external_force(f'row {row} ({sphere_name(row)})', forces[row])  # raises
+    return forces
+
+
+def expired_forces(simulation, wrench_time, timeout_s):
+    """Zero the external force of spheres whose last input is older than timeout_s."""
+    if timeout_s > 0.0:
+        expired = simulation.time - wrench_time > timeout_s
+        if expired.any():
+            simulation.spheres.external_force[:, expired] = 0.0
+            wrench_time[expired] = math.inf
