@@ -21,6 +21,7 @@ import time
 
 from benchmarks.common import cpu_seconds
 from geometry_msgs.msg import PoseArray
+from nav_msgs.msg import Odometry
 import numpy as np
 import rclpy
 from rclpy.context import Context
@@ -49,7 +50,8 @@ class NoPoses(Exception):
     """The node sent no pose within STARTUP_LIMIT_S."""
 
 
-def measure(real_time_factor, seconds, params_file=None):
+def measure(real_time_factor, seconds, params_file=None, odometry_of=0):
+    """odometry_of: subscribe to the odometry of spheres s0 .. s(odometry_of - 1) too."""
     namespace = f'/bench{os.getpid()}_{str(real_time_factor).replace(".", "_")}'
     extra = ['--params-file', str(params_file)] if params_file else []
     launched = time.monotonic()
@@ -63,7 +65,11 @@ def measure(real_time_factor, seconds, params_file=None):
         client = rclpy.create_node('rate_client', context=context)
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(client)
-        stamps = []
+        stamps, odometry = [], [0]
+        for i in range(odometry_of):
+            client.create_subscription(
+                Odometry, f'{namespace}/pool_sim/s{i}/odom',
+                lambda m: odometry.__setitem__(0, odometry[0] + 1), 10)
         client.create_subscription(
             PoseArray, f'{namespace}/pool_sim/poses',
             lambda m: stamps.append((time.monotonic(), m.header.stamp.sec
@@ -77,12 +83,13 @@ def measure(real_time_factor, seconds, params_file=None):
         while time.monotonic() < warm_up_until:
             executor.spin_once(timeout_sec=0.05)
         start_wall, start_cpu, start_count = time.monotonic(), cpu_seconds(node.pid), len(stamps)
-        start_stamp = stamps[-1][1]
+        start_stamp, start_odometry = stamps[-1][1], odometry[0]
         while time.monotonic() - start_wall < seconds:
             executor.spin_once(timeout_sec=0.05)
         wall = time.monotonic() - start_wall
         cpu = cpu_seconds(node.pid) - start_cpu
         received = len(stamps) - start_count
+        odometry_rate = (odometry[0] - start_odometry) / wall
         simulated = stamps[-1][1] - start_stamp
         executor.shutdown()
         client.destroy_node()
@@ -95,12 +102,12 @@ def measure(real_time_factor, seconds, params_file=None):
     client_rtf = simulated / wall if received else math.nan
     per_simulated = received / simulated if simulated > 0 else math.nan
     return (client_rtf, received / wall, per_simulated, 100.0 * cpu / wall,
-            (startup, shutdown), node_own_figures(log, seconds))
+            (startup, shutdown), node_own_figures(log, seconds), odometry_rate)
 
 
-STATUS = re.compile(r'([\d.]+) s simulated in ([\d.]+) s .*?, (\d+) steps, (\d+) publishes, '
-                    r'([\d.]+) s given up to the catch-up bound; '
-                    r'wall time in (.*)$', re.MULTILINE)
+STATUS = re.compile(r'([\d.]+) s simulated in ([\d.]+) s running .*?, (\d+) steps, '
+                    r'(\d+) publishes, ([\d.]+) s given up to the catch-up bound, \d+ '
+                    r'put-backs by the step guard; wall time in (.*)$', re.MULTILINE)
 
 
 def node_own_figures(log, seconds):
@@ -138,6 +145,9 @@ def main():
                         help='measuring window; 10 or more (the node logs every 5 s)')
     parser.add_argument('--spheres', default='3,100,1000,5000,10000')
     parser.add_argument('--skip-default', action='store_true')
+    parser.add_argument('--odometry', default='1000',
+                        help='sphere counts of the table with a subscriber on every odometry '
+                             'topic (empty: none)')
     args = parser.parse_args()
     seconds = args.seconds
     if not args.skip_default:
@@ -145,7 +155,7 @@ def main():
         print('| asked RTF | achieved RTF | poses / wall s | poses / sim s | node CPU % |')
         print('|----------:|-------------:|---------------:|--------------:|-----------:|')
         for real_time_factor in (1.0, 10.0, 0.0):
-            rtf, per_wall, per_sim, cpu, _, _ = measure(real_time_factor, seconds)
+            rtf, per_wall, per_sim, cpu, _, _, _ = measure(real_time_factor, seconds)
             print(f'| {real_time_factor:9g} | {rtf:12.3f} | {per_wall:14.1f} | '
                   f'{per_sim:13.2f} | {cpu:10.0f} |')
         print()
@@ -159,7 +169,7 @@ def main():
         for count in (int(n) for n in args.spheres.split(',')):
             params = spheres_params_file(count, Path(folder) / f'spheres{count}.yaml')
             try:
-                _, client_rate, _, cpu, (startup, shutdown), own = measure(1.0, seconds, params)
+                _, client_rate, _, cpu, (startup, shutdown), own, _ = measure(1.0, seconds, params)
             except NoPoses as waited:
                 print(f'| {count:,} | no pose within {waited.args[0]:.0f} s | | | | | |',
                       flush=True)
@@ -171,6 +181,26 @@ def main():
             rtf, publishes, shares, _ = own
             print(f'| {count:,} | {startup:.0f} / {shutdown:.0f} | {rtf:.3f} | {publishes:.1f} | '
                   f'{cpu:.0f} | {shares} | {client_rate:.1f} |', flush=True)
+    if args.odometry:
+        odometry_table([int(n) for n in args.odometry.split(',')], seconds)
+
+
+def odometry_table(counts, seconds):
+    print(f'\nN spheres with per-sphere topics, this process subscribed to every one of their '
+          f'odometry topics (and the poses); the node\'s own RTF over the last {seconds:g} s')
+    print('| spheres | achieved RTF | s given up to the catch-up bound | node CPU % | '
+          'node wall time in | client: odometry messages / wall s |')
+    print('|---:|---:|---:|---:|---|---:|')
+    with tempfile.TemporaryDirectory() as folder:
+        for count in counts:
+            params = spheres_params_file(count, Path(folder) / f'spheres{count}.yaml')
+            _, _, _, cpu, _, own, odometry_rate = measure(1.0, seconds, params, count)
+            if own is None:
+                print(f'| {count:,} | no status lines | | {cpu:.0f} | | {odometry_rate:.0f} |')
+                continue
+            rtf, _, shares, given_up = own
+            print(f'| {count:,} | {rtf:.3f} | {given_up:.2f} | {cpu:.0f} | {shares} | '
+                  f'{odometry_rate:.0f} |', flush=True)
 
 
 if __name__ == '__main__':

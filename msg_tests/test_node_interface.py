@@ -346,3 +346,12 @@ def test_spawn_and_remove_with_arrays_when_per_sphere_topics_are_off():
                     {'sphere_names': ['ice', 'c'], 'spheres__mass': [1.0]}):
             assert not atomically(ros, **bad).successful
             assert ros.sim.simulation.spheres.names == ('ice', 'a', 'b')
+
+
+def test_replacing_every_sphere_with_arrays_keeps_none_and_starts_the_new_ones():
+    with Harness({**FAST, 'per_sphere_topics': False}) as ros:
+        result = atomically(ros, sphere_names=['n0', 'n1'], spheres__position=[0.0] * 6)
+        assert result.successful, result.reason
+        with ros.sim.lock:
+            assert ros.sim.simulation.spheres.names == ('n0', 'n1')
+            assert list(ros.sim.simulation.spheres.mass) == [1.0, 1.0]

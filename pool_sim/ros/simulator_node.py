@@ -462,8 +462,10 @@ class PoolSimNode(Node):
                     raise InvalidInput(unknown_key_reason(name, True, names))
                 (live if sphere in index else given)[name] = value
         else:
-            initial = {name: i for i, name in enumerate(self.scene.sphere_names)}
-            kept = [(i, initial[name]) for i, name in enumerate(names) if name in initial]
+            # Vectorised over the kept spheres: a spawn at 100 000 spheres is one request.
+            kept = [(i, index[name]) for i, name in enumerate(names) if name in index]
+            new_at = np.array([i for i, _ in kept], dtype=int)
+            old_at = np.array([j for _, j in kept], dtype=int)
             for name, value in values.items():
                 if name == 'sphere_names':
                     continue
@@ -471,15 +473,19 @@ class PoolSimNode(Node):
                 if not name.startswith(ARRAY_PREFIX) or key not in SPHERE_KEYS:
                     raise InvalidInput(unknown_key_reason(name, False, names))
                 rows = as_rows(name, value, len(names), SPHERE_KEYS[key].kind == 'vector')
-                for new, old in kept:
-                    if key in LIVE_SPHERE_KEYS:
-                        if not rows[new] == getattr(self.simulation.spheres, key)[
-                                index[names[new]]]:
-                            live[f'{names[new]}.{key}'] = float(rows[new])
-                    elif not np.array_equal(rows[new], self.scene.sphere_array(key)[old]):
-                        raise InvalidInput(f'{name}: {names[new]} (index {new}) is kept and '
+                initial = self.scene.sphere_array(key)[old_at]
+                if key in LIVE_SPHERE_KEYS:
+                    current = getattr(self.simulation.spheres, key)[old_at]
+                    for j in np.flatnonzero(~(rows[new_at] == current)):  # NaN: changed
+                        live[f'{names[new_at[j]]}.{key}'] = float(rows[new_at[j]])
+                else:
+                    differs = ~(rows[new_at] == initial)
+                    differs = differs.any(axis=1) if differs.ndim == 2 else differs
+                    if differs.any():
+                        first = int(new_at[np.flatnonzero(differs)[0]])
+                        raise InvalidInput(f'{name}: {names[first]} (index {first}) is kept and '
                                            'cannot change it while running')
-                    rows[new] = self.scene.sphere_array(key)[old]
+                rows[new_at] = initial
                 given[name] = rows.ravel().tolist()
         scene = self.scene.with_spheres(names, given)
         spheres, pool = self.simulation.spheres, self.simulation.environment.pool
