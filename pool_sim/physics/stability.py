@@ -28,11 +28,9 @@ def sphere_stiffness(scene, spheres=None, indices=None):
     """
     effects = set(scene['effects'])
     if spheres is None:
-        names = scene.sphere_names
-        mass = np.array([scene[f'{n}.mass'] for n in names])
-        radius = np.array([scene[f'{n}.radius'] for n in names])
-        drag_coefficient = np.array([scene[f'{n}.drag_coefficient'] for n in names])
-        initial_speed = np.array([np.linalg.norm(scene[f'{n}.velocity']) for n in names])
+        mass, radius = scene.sphere_array('mass'), scene.sphere_array('radius')
+        drag_coefficient = scene.sphere_array('drag_coefficient')
+        initial_speed = np.linalg.norm(scene.sphere_array('velocity'), axis=1)
     else:
         chosen = slice(None) if indices is None else np.asarray(indices, dtype=int)
         mass, radius = spheres.mass[chosen], spheres.radius[chosen]
