@@ -8,7 +8,8 @@ Before: refill one Python nav_msgs/Odometry per sphere field by field and publis
 converts it). After: SphereMessages patches every sphere's serialized Odometry in one numpy
 operation and publishes its bytes. Each case runs once per sphere for all n spheres, as one
 publish of the node does; us per message = median seconds of that / n. Also the cost of
-building all n Odometry (start-up) and of patching and taking the states message.
+building all n Odometry (start-up) and of patching and taking the states message, and the
+start-up and per-publish cost of the PoseArray, MarkerArray and states at 1e3 to 1e5 spheres.
 """
 import argparse
 import os
@@ -25,6 +26,7 @@ from pool_sim.ros.messages import (odometry_messages, sphere_odometry, SphereMes
                                    stamp_of)
 
 MATCH_TIMEOUT_S = 10.0
+ARRAY_SPHERE_COUNTS = (1_000, 10_000, 100_000)
 
 
 def old_fill(odometry, stamp, position, velocity, wanted):
@@ -47,6 +49,21 @@ def matched_publisher(node, message_type, topic):
             raise RuntimeError(f'no subscriber matched {topic}')
         time.sleep(0.01)
     return publisher
+
+
+def array_costs_ms(count):
+    """(build, fill) ms of the PoseArray, MarkerArray and states of `count` spheres: building
+    SphereMessages without Odometry (start-up), then one fill (each publish)."""
+    rng = np.random.default_rng(0)
+    names = [f's{i}' for i in range(count)]
+    position, velocity = rng.normal(size=(3, count)), rng.normal(size=(3, count))
+    radius = rng.uniform(0.01, 0.3, count)
+    build_s = timed(lambda: SphereMessages(names, 'world', odometry=False), budget_s=0.5,
+                    repeats=3)
+    messages = SphereMessages(names, 'world', odometry=False)
+    fill_s = timed(lambda: messages.fill(12.5, position, velocity, radius), budget_s=0.3,
+                   repeats=5)
+    return build_s * 1e3, fill_s * 1e3
 
 
 def main():
@@ -131,6 +148,12 @@ def main():
         print(f'| build all {n:,} Odometry (start-up) | {ms:.1f} ms |')
     print(f'| patch states ({count:,} × 6 doubles) | {states_us:.1f} us |')
     print(f'| publish(states_bytes()) | {states_publish_us:.1f} us |')
+    print('\nPoseArray + MarkerArray + states, ms (median of 3 builds, 5 fills):')
+    print('| spheres | build (start-up) | fill (each publish) |')
+    print('|---:|---:|---:|')
+    for array_count in ARRAY_SPHERE_COUNTS:
+        build_ms, fill_ms = array_costs_ms(array_count)
+        print(f'| {array_count:,} | {build_ms:.1f} | {fill_ms:.2f} |')
 
 
 if __name__ == '__main__':

@@ -15,8 +15,8 @@ from visualization_msgs.msg import MarkerArray
 
 from pool_sim.ros import messages as messages_module, serialized
 from pool_sim.ros.messages import (LAST_STAMP_S, odometry_messages, pose_array,
-                                   sphere_markers, sphere_odometry, sphere_states,
-                                   SphereMessages, stamp_of)
+                                   sphere_colour, sphere_colours, sphere_markers,
+                                   sphere_odometry, sphere_states, SphereMessages, stamp_of)
 
 
 def round_trip(message):
@@ -24,18 +24,60 @@ def round_trip(message):
     return deserialize_message(serialize_message(message), type(message))
 
 
-@pytest.mark.parametrize('count', [1, 2, 7, 300])
-def test_patched_pose_and_marker_arrays_read_back_as_the_expected_messages(count):
+def differences(received, expected, path='message'):
+    """Paths of the fields (every one, nested, each element of each sequence) that differ."""
+    if hasattr(type(expected), 'get_fields_and_field_types'):
+        if type(received) is not type(expected):
+            return [f'{path}: {type(received).__name__} != {type(expected).__name__}']
+        return [difference for field in type(expected).get_fields_and_field_types()
+                for difference in differences(getattr(received, field),
+                                              getattr(expected, field), f'{path}.{field}')]
+    if isinstance(expected, (list, tuple, array.array, np.ndarray)):
+        if len(received) != len(expected):
+            return [f'{path}: {len(received)} elements != {len(expected)}']
+        return [difference for i, (got, wanted) in enumerate(zip(received, expected))
+                for difference in differences(got, wanted, f'{path}[{i}]')]
+    return [] if received == expected else [f'{path}: {received!r} != {expected!r}']
+
+
+def assert_reads_back_as(data, expected):
+    """`data` deserializes to `expected` as a subscriber receives it, field by field, and
+    has the length rclpy's own serialization of it has."""
+    received = deserialize_message(data, type(expected))
+    assert differences(received, round_trip(expected)) == []
+    assert received == round_trip(expected)
+    assert len(data) == len(serialize_message(expected))
+
+
+def random_frame_id(length, seed):
+    return ''.join(np.random.default_rng(seed).choice(list('abcXYZ019_/'), length))
+
+
+# Every length 0..9 puts what follows header.frame_id at each alignment; 'é' is 2 bytes.
+FRAME_IDS = (['', 'é', 'pool_frame'] + [random_frame_id(length, length)
+                                        for length in (1, 2, 3, 4, 5, 6, 7, 8, 9, 23)])
+
+
+@pytest.mark.parametrize('count, frame_id', [
+    (count, frame_id) for count in (0, 1, 2, 3, 17) for frame_id in FRAME_IDS]
+    + [(257, frame_id) for frame_id in FRAME_IDS[:4]])
+def test_pose_marker_and_state_arrays_read_back_as_the_python_messages(count, frame_id):
+    """Assembled from a few elements' serialization, each reads back as the message built
+    element by element in Python (pose_array, sphere_markers, sphere_states): before any
+    fill, and after each fill with the values filled in."""
     rng = np.random.default_rng(count)
-    messages = SphereMessages([f's{i}' for i in range(count)], 'pool_frame')
+    messages = SphereMessages([f's{i}' for i in range(count)], frame_id, odometry=False)
+    assert_reads_back_as(messages.poses.to_bytes(), pose_array(count, frame_id))
+    assert_reads_back_as(messages.markers.to_bytes(), sphere_markers(count, frame_id))
+    assert_reads_back_as(messages.states_bytes(), sphere_states(count))
     for time_s in (0.0, 12.345678901, 1e5 + 0.5):
         position, velocity = rng.normal(size=(3, count)), rng.normal(size=(3, count))
         radius = rng.uniform(0.01, 1.0, count)
         messages.fill(time_s, position, velocity, radius)
         stamp = stamp_of(time_s)
-        expected_poses = pose_array(count, 'pool_frame')
+        expected_poses = pose_array(count, frame_id)
         expected_poses.header.stamp = stamp
-        expected_markers = sphere_markers(count, 'pool_frame')
+        expected_markers = sphere_markers(count, frame_id)
         for i in range(count):
             point = expected_poses.poses[i].position
             point.x, point.y, point.z = position[:, i].tolist()
@@ -44,12 +86,35 @@ def test_patched_pose_and_marker_arrays_read_back_as_the_expected_messages(count
             marker.pose.position.x, marker.pose.position.y, marker.pose.position.z = \
                 position[:, i].tolist()
             marker.scale.x = marker.scale.y = marker.scale.z = 2.0 * float(radius[i])
-        assert deserialize_message(messages.poses.to_bytes(), PoseArray) == round_trip(
-            expected_poses)
-        assert deserialize_message(messages.markers.to_bytes(), MarkerArray) == round_trip(
-            expected_markers)
-        # Same layout as rclpy's own: the same length.
-        assert len(messages.markers.to_bytes()) == len(serialize_message(expected_markers))
+        assert_reads_back_as(messages.poses.to_bytes(), expected_poses)
+        assert_reads_back_as(messages.markers.to_bytes(), expected_markers)
+        assert_reads_back_as(messages.states_bytes(), expected_states(position, velocity))
+
+
+@pytest.mark.parametrize('count', [1, 2, 6, 7, 12, 1000])
+def test_sphere_colours_are_sphere_colour_of_every_index_exactly(count):
+    expected = [sphere_colour(i, count) for i in range(count)]
+    assert sphere_colours(count).tolist() == [[c.r, c.g, c.b, c.a] for c in expected]
+
+
+def test_arrays_are_serialized_with_at_most_3_elements_whatever_the_count(monkeypatch):
+    """Building costs O(n) numpy, not rclpy's conversion of n Python elements."""
+    serialized_sizes = []
+
+    def counted(message):
+        elements = {PoseArray: 'poses', MarkerArray: 'markers', Float64MultiArray: 'data'}
+        serialized_sizes.append((type(message), len(getattr(message, elements[type(message)]))))
+        return serialize_message(message)
+    monkeypatch.setattr(serialized, 'serialize_message', counted)
+    for count in (10, 1000):
+        serialized_sizes.clear()
+        messages = SphereMessages([f's{i}' for i in range(count)], 'world', odometry=False)
+        assert len(deserialize_message(messages.markers.to_bytes(), MarkerArray).markers) == \
+            count
+        assert sorted(serialized_sizes, key=str) == sorted(
+            [(message_type, elements) for message_type in (PoseArray, MarkerArray)
+             for elements in (0, 1, 2, 3, 3)]
+            + [(Float64MultiArray, doubles) for doubles in (0, 1, 2, 3, 3)], key=str)
 
 
 def test_a_patched_marker_array_reads_back_as_markers():

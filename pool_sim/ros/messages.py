@@ -1,10 +1,11 @@
 """ROS messages from the simulation's arrays.
 
-Every message is serialized once and patched in place each publish (serialized.py), then
-published as bytes: PoseArray, MarkerArray, the Float64MultiArray of every sphere's state and
-the Odometry of each sphere (all in one buffer; only the spheres someone listens to are
-patched). rclpy's per-message conversion (~10 us per pose, ~30 us per marker, ~24 us per
-Odometry refilled and converted) no longer runs on publish.
+Every message is serialized once (the arrays: assembled from rclpy's serialization of a few
+elements) and patched in place each publish (serialized.py), then published as bytes:
+PoseArray, MarkerArray, the Float64MultiArray of every sphere's state and the Odometry of
+each sphere (all in one buffer; only the spheres someone listens to are patched). rclpy's
+per-message conversion (~10 us per pose, ~30 us per marker, ~24 us per Odometry refilled
+and converted) no longer runs on publish.
 """
 import array
 import colorsys
@@ -35,6 +36,25 @@ def sphere_colour(index: int, count: int) -> ColorRGBA:
     return ColorRGBA(r=red, g=green, b=blue, a=1.0)
 
 
+# sphere_colour's (r, g, b) in each hue sector of colorsys.hsv_to_rgb, as indices into
+# (value, t, p, q) of its arithmetic.
+_SECTOR_RGB = np.array([[0, 1, 2], [3, 0, 2], [2, 0, 1], [2, 3, 0], [1, 2, 0], [0, 2, 3]])
+
+
+def sphere_colours(count) -> np.ndarray:
+    """(count, 4) r, g, b, a of sphere_colour(i, count) for every i, vectorised: the same
+    arithmetic as colorsys.hsv_to_rgb, so the same doubles."""
+    saturation, value = 0.75, 0.95
+    hue_6 = np.arange(count) / max(count, 1) * 6.0
+    sector = hue_6.astype(np.int64)  # int() truncates: hue >= 0
+    fraction = hue_6 - sector
+    candidates = np.stack(np.broadcast_arrays(
+        value, value * (1.0 - saturation * (1.0 - fraction)), value * (1.0 - saturation),
+        value * (1.0 - saturation * fraction)))
+    rgb = candidates[_SECTOR_RGB[sector % 6], np.arange(count)[:, None]]
+    return np.column_stack((rgb, np.ones(count)))
+
+
 def pose_array(count, frame_id) -> PoseArray:
     poses = PoseArray()
     poses.header.frame_id = frame_id
@@ -52,6 +72,12 @@ def sphere_markers(count, frame_id) -> MarkerArray:
         marker.color = sphere_colour(i, count)
         markers.markers.append(marker)
     return markers
+
+
+def _stamp_paths(*path):
+    """PatchedMessage's stamp fields, stamp_sec and stamp_nanosec, of the
+    builtin_interfaces/Time at `path`: name -> (numpy dtype, path of the number)."""
+    return {'stamp_sec': ('<i4', (*path, 'sec')), 'stamp_nanosec': ('<u4', (*path, 'nanosec'))}
 
 
 def _setter(*path):
@@ -78,9 +104,10 @@ def sphere_odometry(name, frame_id) -> Odometry:
 STATE_COLUMNS = 6
 
 
-def sphere_states(count) -> Float64MultiArray:
+def sphere_states(count, data_length=None) -> Float64MultiArray:
     """count × 6 row-major zeros: dim[0] 'spheres', dim[1] 'position_velocity'. No header:
-    std_msgs' arrays have none; its time is the stamp of the PoseArray published with it."""
+    std_msgs' arrays have none; its time is the stamp of the PoseArray published with it.
+    data_length: doubles in data if not count × 6 (a template for count spheres)."""
     states = Float64MultiArray()
     states.layout.dim = [
         MultiArrayDimension(label='spheres', size=count, stride=STATE_COLUMNS * count),
@@ -88,16 +115,14 @@ def sphere_states(count) -> Float64MultiArray:
                             stride=STATE_COLUMNS)]
     states.layout.data_offset = 0
     # array.array skips rclpy's per-element check of a list (600 000 doubles at 100 000).
-    states.data = array.array('d', bytes(8 * STATE_COLUMNS * count))
+    if data_length is None:
+        data_length = STATE_COLUMNS * count
+    states.data = array.array('d', bytes(8 * data_length))
     return states
 
 
-def _mark_first_and_last(states, first, last):
-    states.data[0], states.data[-1] = first, last
-
-
 def _field_setter(*path):
-    """(message, value) -> sets the double at `path` (attribute names) of message."""
+    """(message, value) -> sets the number at `path` (attribute names) of message."""
     *parents, last = path
 
     def set_value(message, value):
@@ -130,18 +155,30 @@ class SphereMessages:
 
     def __init__(self, names, frame_id, odometry=True):
         count = len(names)
+        # Each is assembled from its 0- to 3-element serializations (PatchedMessage), so
+        # building costs O(count) numpy copying; the per-sphere hues and ids are written in
+        # once here.
+        header = {name: (dtype, _field_setter(*path)) for name, (dtype, path) in
+                  _stamp_paths('header', 'stamp').items()}
         self.poses = PatchedMessage(
-            lambda: pose_array(count, frame_id), count,
-            {axis: _setter('poses', '[]', 'position', axis) for axis in 'xyz'},
-            stamp=lambda message, index: message.header.stamp, stamp_count=1)
-        doubles = {axis: _setter('markers', '[]', 'pose', 'position', axis) for axis in 'xyz'}
-        doubles.update({f'scale_{axis}': _setter('markers', '[]', 'scale', axis)
-                        for axis in 'xyz'})
-        self.markers = PatchedMessage(
-            lambda: sphere_markers(count, frame_id), count, doubles,
-            stamp=lambda message, index: message.markers[index].header.stamp,
-            stamp_count=count)
-        self.states = PatchedDoubleBlock(lambda: sphere_states(count), _mark_first_and_last,
+            lambda elements: pose_array(elements, frame_id), count, header_fields=header,
+            element_fields={axis: ('<f8', _setter('poses', '[]', 'position', axis))
+                            for axis in 'xyz'})
+        marker_fields = {name: (dtype, _setter(*path)) for name, (dtype, path) in
+                         _stamp_paths('markers', '[]', 'header', 'stamp').items()}
+        marker_fields['id'] = ('<i4', _setter('markers', '[]', 'id'))
+        for axis in 'xyz':
+            marker_fields[axis] = ('<f8', _setter('markers', '[]', 'pose', 'position', axis))
+            marker_fields[f'scale_{axis}'] = ('<f8', _setter('markers', '[]', 'scale', axis))
+        for channel in 'rgba':
+            marker_fields[f'color_{channel}'] = ('<f4', _setter('markers', '[]', 'color',
+                                                                channel))
+        self.markers = PatchedMessage(lambda elements: sphere_markers(elements, frame_id),
+                                      count, element_fields=marker_fields)
+        colours = sphere_colours(count)
+        self.markers.write(id=np.arange(count), **{
+            f'color_{channel}': colours[:, column] for column, channel in enumerate('rgba')})
+        self.states = PatchedDoubleBlock(lambda doubles: sphere_states(count, doubles),
                                          count, STATE_COLUMNS)
         # odometry[i]: sphere i's serialized Odometry, which publish takes as it takes the
         # message; with odometry=False an empty sequence.
