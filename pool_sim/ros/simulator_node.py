@@ -42,8 +42,8 @@ from pool_sim.ros.inputs import expired_forces, ForceInputs
 from pool_sim.ros.messages import LAST_STAMP_S, scene_markers, SphereMessages, stamp_of
 from pool_sim.ros.parameters import (ARRAY_PREFIX, as_declared_types, declare_scene, describe,
                                      is_read_only, is_ros_own, LIVE_SPHERE_KEYS,
-                                     overrides_of, params_files, plain, retable, scene_from_overrides,
-                                     sphere_parameters)
+                                     overrides_of, params_files, plain, retable,
+                                     scene_from_overrides, sphere_parameters)
 from pool_sim.ros.services import (guard_services, KNOWN_PARAMETER_TYPES, THROTTLE_S,
                                    unknown_type_reason)
 
