@@ -4,7 +4,7 @@
         [--per-sphere 100,1000,5000] [--out results/node/startup.md]
 
 Each row is one node process (`python -m pool_sim --ros-args --params-file f`), the scene
-given as `spheres.<key>` arrays. First pose: wall seconds from launching the process to a
+given as `spheres.<key>` arrays (mass, radius, position as x, y, z). First pose: wall seconds from launching the process to a
 client in this process holding the first ~/poses (transient-local, so a pose sent before
 the client matched counts). Shutdown: SIGINT to exit. Node memory: the node's resident set
 once running, less that of the core alone (a process that builds the same Scene and
@@ -38,14 +38,15 @@ def params_file(count, per_sphere_topics, path):
     position = rng.uniform(-3.5, 3.5, (count, 3))
 
     def numbers(values):
-        return '[' + ', '.join(f'{v:.6g}' for v in np.ravel(values)) + ']'
+        return '[' + ', '.join(f'{v:.6e}' for v in np.ravel(values)) + ']'  # all doubles
     names = ', '.join(f's{i}' for i in range(count))
     path.write_text(
         '/**/pool_sim:\n  ros__parameters:\n'
         f'    sphere_names: [{names}]\n'
         f'    per_sphere_topics: {"true" if per_sphere_topics else "false"}\n'
         f'    spheres:\n      mass: {numbers(mass)}\n      radius: {numbers(radius)}\n'
-        f'      position: {numbers(position)}\n')
+        '      position:\n'
+        + ''.join(f'        {c}: {numbers(position[:, i])}\n' for i, c in enumerate('xyz')))
     return path
 
 

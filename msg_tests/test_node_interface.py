@@ -163,7 +163,8 @@ def test_states_carry_every_sphere_position_and_velocity_with_the_poses():
 def test_without_per_sphere_topics_the_graph_and_parameters_do_not_grow_with_spheres():
     names = [f's{i}' for i in range(50)]
     params = {**FAST, 'per_sphere_topics': False, 'sphere_names': names,
-              'spheres.position': [0.0] * 150, 'spheres.mass': [2.0] * 50}
+              'spheres.position.x': [0.0] * 50, 'spheres.position.y': [0.0] * 50,
+              'spheres.position.z': [0.0] * 50, 'spheres.mass': [2.0] * 50}
     with Harness(params) as ros:
         ros.spin_for(0.5)
         topics = [t for t, _ in ros.client.get_topic_names_and_types()
@@ -186,7 +187,7 @@ def test_without_per_sphere_topics_the_graph_and_parameters_do_not_grow_with_sph
         assert (ros.sim.simulation.spheres.mass == 3.0).all()
         refused = set_one(ros, 'spheres.mass', value_of([3.0] * 49))
         assert not refused.successful and 'expected 50 values' in refused.reason
-        refused = set_one(ros, 'spheres.position', value_of([1.0] * 150))
+        refused = set_one(ros, 'spheres.position.x', value_of([1.0] * 50))
         assert not refused.successful and 'cannot change while running' in refused.reason
 
 
@@ -332,18 +333,20 @@ def test_spawn_and_remove_with_arrays_when_per_sphere_topics_are_off():
         assert ros.call(SetBool, 'pause', SetBool.Request(data=True)).success
         ice_before = ros.state('ice')
         result = atomically(ros, sphere_names=['ice', 'a', 'b'],
-                            spheres__mass=[12.964, 1.0, 2.0],
-                            spheres__position=[2.0, 0.0, 3.75, 0.0, 1.0, 1.0, 0.0, -1.0, 1.0])
+                            spheres__mass=[12.964, 1.0, 2.0], spheres__position__x=[2.0, 0.0, 0.0],
+                            spheres__position__y=[0.0, 1.0, -1.0],
+                            spheres__position__z=[3.75, 1.0, 1.0])
         assert result.successful, result.reason
         spheres = ros.sim.simulation.spheres
         assert spheres.names == ('ice', 'a', 'b') and list(spheres.mass[1:]) == [1.0, 2.0]
         assert all((a == b).all() for a, b in zip(ros.state('ice'),
                                                   ice_before))
-        assert len(ros.sim.get_parameter('spheres.position').value) == 9
+        assert list(ros.sim.get_parameter('spheres.position.y').value) == [0.0, 1.0, -1.0]
         assert list(ros.sim.get_parameter('spheres.radius').value)[1:] == [0.1, 0.1]
         # A kept sphere's start cannot move; a wrong length is refused; nothing changes.
         for bad in ({'sphere_names': ['ice', 'c'],
-                     'spheres__position': [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]},
+                     'spheres__position__x': [0.0, 0.0], 'spheres__position__y': [0.0, 0.0],
+                     'spheres__position__z': [0.0, 0.0]},
                     {'sphere_names': ['ice', 'c'], 'spheres__mass': [1.0]}):
             assert not atomically(ros, **bad).successful
             assert ros.sim.simulation.spheres.names == ('ice', 'a', 'b')
@@ -351,7 +354,8 @@ def test_spawn_and_remove_with_arrays_when_per_sphere_topics_are_off():
 
 def test_replacing_every_sphere_with_arrays_keeps_none_and_starts_the_new_ones():
     with Harness({**FAST, 'per_sphere_topics': False}) as ros:
-        result = atomically(ros, sphere_names=['n0', 'n1'], spheres__position=[0.0] * 6)
+        result = atomically(ros, sphere_names=['n0', 'n1'], spheres__position__x=[0.0] * 2,
+                            spheres__position__y=[0.0] * 2, spheres__position__z=[0.0] * 2)
         assert result.successful, result.reason
         with ros.sim.lock:
             assert ros.sim.simulation.spheres.names == ('n0', 'n1')

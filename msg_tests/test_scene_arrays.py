@@ -585,3 +585,31 @@ def test_with_values_may_add_and_remove_spheres_too():
     scene = Scene.default().with_values(sphere_names=['steel', 'new'], gravity=[0, 0, -1])
     assert scene['steel.mass'] == Scene.default()['steel.mass']
     assert scene['new.mass'] == 1.0 and scene['gravity'] == (0.0, 0.0, -1.0)
+
+
+def test_a_vector_key_as_three_component_lists_is_the_flat_list():
+    rows = [[0.5, -1.0, 2.0], [1.0, 0.0, -2.5], [-3.0, 3.0, 0.25]]
+    columns = {f'spheres.position.{c}': [row[i] for row in rows]
+               for i, c in enumerate('xyz')}
+    by_components = Scene({'sphere_names': ['a', 'b', 'c'], **columns})
+    flat_list = Scene({'sphere_names': ['a', 'b', 'c'], 'spheres.position': flat(rows)})
+    assert_same_bits(by_components.sphere_array('position'), np.array(rows))
+    assert_same_spheres(by_components.build_spheres(), flat_list.build_spheres())
+
+
+@pytest.mark.parametrize('keys, reason', [
+    ({'spheres.position.x': [0.0] * 3, 'spheres.position.y': [0.0] * 3},
+     '^spheres.position.z: give all three'),
+    ({'spheres.position.x': [0.0] * 3, 'spheres.position.y': [0.0] * 2,
+      'spheres.position.z': [0.0] * 3}, '^spheres.position.y: 2 numbers against 3'),
+    ({'spheres.velocity.x': [0.0] * 3, 'spheres.velocity.y': [0.0] * 3,
+      'spheres.velocity.z': [0.0] * 3, 'spheres.velocity': [0.0] * 9},
+     '^spheres.velocity: given both'),
+    ({'spheres.position.x': 1.0, 'spheres.position.y': [0.0] * 3,
+      'spheres.position.z': [0.0] * 3}, '^spheres.position.x: expected a list'),
+    ({'spheres.position.x': [0.0] * 2, 'spheres.position.y': [0.0] * 2,
+      'spheres.position.z': [0.0] * 2}, '^spheres.position: expected 9 numbers'),
+])
+def test_component_lists_that_do_not_fit_are_refused_naming_the_key(keys, reason):
+    with pytest.raises(InvalidInput, match=reason):
+        Scene({'sphere_names': ['a', 'b', 'c'], **keys})

@@ -7,8 +7,8 @@ name.
 Per-sphere keys take one of two forms, chosen with the per-sphere topics:
 - `per_sphere_topics: true` (the default, small scenes): `<sphere>.<key>`, one parameter
   per sphere and key, as `ros2 param set /pool_sim cork.mass 9` expects;
-- `false`: `spheres.<key>`, one array over `sphere_names` per key (a vector key flattened
-  x0, y0, z0, x1, ...), so the parameter count and memory do not grow per sphere.
+- `false`: `spheres.<key>`, one array over `sphere_names` per key (a vector key as three,
+  `spheres.<key>.x`, `.y`, `.z`), so the parameter count and memory do not grow per sphere.
 A params file may use either form in either case.
 
 Types are fixed, as `ros2 param describe` shows them: a number is a double, a vector a
@@ -22,7 +22,7 @@ import numpy as np
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, ParameterEvent
 from rclpy.parameter import Parameter
 
-from pool_sim.physics.scene import GLOBAL_KEYS, InvalidInput, Scene, SPHERE_KEYS
+from pool_sim.physics.scene import COMPONENTS, GLOBAL_KEYS, InvalidInput, Scene, SPHERE_KEYS
 from pool_sim.physics.spheres import range_words
 
 # Parameters rclpy itself declares or reads; they are not part of the scene.
@@ -36,6 +36,26 @@ ARRAY_PREFIX = 'spheres.'
 
 def is_ros_own(name: str) -> bool:
     return name in ROS_OWN_PARAMETERS or name.startswith('qos_overrides.')
+
+
+def array_parameter(name: str):
+    """(key, component index or None) of a `spheres.<key>` or `spheres.<key>.x|y|z` name,
+    or None for any other name."""
+    if not name.startswith(ARRAY_PREFIX):
+        return None
+    key, _, component = name[len(ARRAY_PREFIX):].partition('.')
+    spec = SPHERE_KEYS.get(key)
+    if spec is None:
+        return None
+    if spec.kind == 'vector':
+        return (key, COMPONENTS.index(component)) if component in COMPONENTS else None
+    return None if component else (key, None)
+
+
+def array_parameter_names():
+    return [f'{ARRAY_PREFIX}{key}.{c}' if spec.kind == 'vector' else f'{ARRAY_PREFIX}{key}'
+            for key, spec in SPHERE_KEYS.items()
+            for c in (COMPONENTS if spec.kind == 'vector' else ('',))]
 
 
 def scene_from_overrides(overrides: dict, default: Scene) -> Scene:
@@ -52,7 +72,8 @@ def scene_from_overrides(overrides: dict, default: Scene) -> Scene:
     # A wrong type is left for Scene to refuse, naming the key.
     names = tuple(names) if isinstance(names, (list, tuple)) else ()
     params = dict(default.global_values())
-    as_arrays = {name[len(ARRAY_PREFIX):] for name in overrides if name.startswith(ARRAY_PREFIX)}
+    as_arrays = {name[len(ARRAY_PREFIX):].partition('.')[0] for name in overrides
+                 if name.startswith(ARRAY_PREFIX)}
     for name in names:
         if name not in default.sphere_names:
             continue
@@ -73,9 +94,10 @@ def describe(name: str, read_only: bool) -> ParameterDescriptor:
     range is a FloatingPointRange for numbers (rclpy enforces it on doubles) and for each
     component of a vector or array (shown; the scene's own checks enforce every range)."""
     if name.startswith(ARRAY_PREFIX):
-        key = SPHERE_KEYS[name[len(ARRAY_PREFIX):]]
-        per = '3 values (x, y, z) per sphere' if key.kind == 'vector' else 'one per sphere'
-        description = f'{key.description}; {per}, in sphere_names order'
+        key, component = array_parameter(name)
+        key = SPHERE_KEYS[key]
+        which = '' if component is None else f'the {COMPONENTS[component]} component of the '
+        description = f'{which}{key.description}; one per sphere, in sphere_names order'
         scope = 'each value '
     else:
         key = GLOBAL_KEYS.get(name) or SPHERE_KEYS[name.rsplit('.', 1)[1]]
@@ -114,8 +136,13 @@ def sphere_parameters(scene: Scene, per_sphere: bool, live=None, names=None):
     """
     live = live or {}
     if not per_sphere:
-        return [(f'{ARRAY_PREFIX}{key}', doubles(live.get(key, scene.sphere_array(key))),
-                 describe(f'{ARRAY_PREFIX}{key}', False)) for key in SPHERE_KEYS]
+        declared = []
+        for name in array_parameter_names():
+            key, component = array_parameter(name)
+            values = live.get(key, scene.sphere_array(key))
+            values = values if component is None else values[:, component]
+            declared.append((name, doubles(values), describe(name, False)))
+        return declared
     index = {name: i for i, name in enumerate(scene.sphere_names)}
     chosen = scene.sphere_names if names is None else names
     arrays = {key: live.get(key, scene.sphere_array(key)).tolist() for key in SPHERE_KEYS}
@@ -154,7 +181,8 @@ def number_key(name: str):
     if name in GLOBAL_KEYS:
         return GLOBAL_KEYS[name]
     if name.startswith(ARRAY_PREFIX):
-        return SPHERE_KEYS.get(name[len(ARRAY_PREFIX):])
+        found = array_parameter(name)
+        return None if found is None else SPHERE_KEYS[found[0]]
     return SPHERE_KEYS.get(name.rpartition('.')[2])
 
 

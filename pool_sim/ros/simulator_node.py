@@ -40,10 +40,10 @@ from pool_sim.physics.stability import stable_at, stable_step_bound
 from pool_sim.ros.executables import run_node
 from pool_sim.ros.inputs import expired_forces, ForceInputs
 from pool_sim.ros.messages import LAST_STAMP_S, scene_markers, SphereMessages, stamp_of
-from pool_sim.ros.parameters import (ARRAY_PREFIX, as_declared_types, declare_scene, describe,
-                                     is_read_only, is_ros_own, LIVE_SPHERE_KEYS,
-                                     overrides_of, params_files, plain, retable,
-                                     scene_from_overrides, sphere_parameters)
+from pool_sim.ros.parameters import (ARRAY_PREFIX, array_parameter, as_declared_types,
+                                     declare_scene, describe, is_read_only, is_ros_own,
+                                     LIVE_SPHERE_KEYS, overrides_of, params_files, plain,
+                                     retable, scene_from_overrides, sphere_parameters)
 from pool_sim.ros.services import (guard_services, KNOWN_PARAMETER_TYPES, THROTTLE_S,
                                    unknown_type_reason)
 
@@ -89,6 +89,10 @@ class PoolSimNode(Node):
 
     def _build(self, default_scene):
         self.scene = scene_from_overrides(overrides_of(self), default_scene)
+        # The scene holds them now, as arrays; rclpy's copy (a Python float per number,
+        # 32 bytes each) would stay for the node's life. rclpy's own keep theirs.
+        self._parameter_overrides = {name: parameter for name, parameter
+                                     in self._parameter_overrides.items() if is_ros_own(name)}
         scene, names = self.scene, self.scene.sphere_names
         self.per_sphere = scene['per_sphere_topics']
         declare_scene(self, scene, self.per_sphere)
@@ -426,13 +430,15 @@ class PoolSimNode(Node):
         return changes
 
     def _live_array_changes(self, name, value, scene):
-        key = name[len(ARRAY_PREFIX):]
-        if key not in SPHERE_KEYS:
+        found = array_parameter(name)
+        if found is None:
             raise InvalidInput(unknown_key_reason(name, False, scene.sphere_names))
+        key, component = found
         spheres, pool = self.simulation.spheres, self.simulation.environment.pool
-        rows = as_rows(name, value, spheres.count, SPHERE_KEYS[key].kind == 'vector')
+        rows = as_rows(name, value, spheres.count)
         if key not in LIVE_SPHERE_KEYS:
-            if not np.array_equal(rows, scene.sphere_array(key)):
+            initial = scene.sphere_array(key)
+            if not np.array_equal(rows, initial if component is None else initial[:, component]):
                 raise InvalidInput(f'{name}: cannot change while running (only '
                                    f'{", ".join(ARRAY_PREFIX + k for k in LIVE_SPHERE_KEYS)} '
                                    'can, and sphere_names, to add and remove spheres)')
@@ -469,24 +475,25 @@ class PoolSimNode(Node):
             for name, value in values.items():
                 if name == 'sphere_names':
                     continue
-                key = name[len(ARRAY_PREFIX):]
-                if not name.startswith(ARRAY_PREFIX) or key not in SPHERE_KEYS:
+                found = array_parameter(name)
+                if found is None:
                     raise InvalidInput(unknown_key_reason(name, False, names))
-                rows = as_rows(name, value, len(names), SPHERE_KEYS[key].kind == 'vector')
+                key, component = found
+                rows = as_rows(name, value, len(names))
                 initial = self.scene.sphere_array(key)[old_at]
+                initial = initial if component is None else initial[:, component]
                 if key in LIVE_SPHERE_KEYS:
                     current = getattr(self.simulation.spheres, key)[old_at]
                     for j in np.flatnonzero(~(rows[new_at] == current)):  # NaN: changed
                         live[f'{names[new_at[j]]}.{key}'] = float(rows[new_at[j]])
                 else:
                     differs = ~(rows[new_at] == initial)
-                    differs = differs.any(axis=1) if differs.ndim == 2 else differs
                     if differs.any():
                         first = int(new_at[np.flatnonzero(differs)[0]])
                         raise InvalidInput(f'{name}: {names[first]} (index {first}) is kept and '
                                            'cannot change it while running')
                 rows[new_at] = initial
-                given[name] = rows.ravel().tolist()
+                given[name] = rows.tolist()
         scene = self.scene.with_spheres(names, given)
         spheres, pool = self.simulation.spheres, self.simulation.environment.pool
         changes = []
@@ -632,17 +639,16 @@ def check_live(spheres, pool, sphere, key, value) -> float:
     return spheres.check_lift_area(sphere, value)
 
 
-def as_rows(name, value, count, is_vector) -> np.ndarray:
-    """A spheres.<key> array as (count,) or (count, 3) floats, or InvalidInput."""
-    width = 3 if is_vector else 1
+def as_rows(name, value, count) -> np.ndarray:
+    """A spheres.<key> array parameter as (count,) floats, or InvalidInput."""
     try:
         rows = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        raise InvalidInput(f'{name}: expected {width * count} numbers, got {value!r:.60}')
-    if rows.ndim != 1 or rows.size != width * count:
-        raise InvalidInput(f'{name}: expected {width * count} values ({width} per sphere in '
+        raise InvalidInput(f'{name}: expected {count} numbers, got {value!r:.60}') from None
+    if rows.ndim != 1 or rows.size != count:
+        raise InvalidInput(f'{name}: expected {count} values (one per sphere in '
                            f'sphere_names), got {rows.size}')
-    return rows.reshape(count, 3) if is_vector else rows
+    return rows
 
 
 def unknown_key_reason(name, per_sphere, sphere_names) -> str:
