@@ -9,11 +9,13 @@ client in this process holding the first ~/poses (transient-local, so a pose sen
 the client matched counts). Shutdown: SIGINT to exit. Node memory: the node's resident set
 once running, less that of the core alone (a process that builds the same Scene and
 Simulation and steps it): what the ROS layer adds, per sphere above the 100-sphere row.
+Medians of --repeats processes a row: DDS discovery alone varies from 0.1 to 2.5 s.
 """
 import argparse
 import os
 from pathlib import Path
 import signal
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -113,24 +115,29 @@ def measure(path, count):
     return first_pose, shutdown, resident
 
 
-def table(counts, per_sphere_topics, folder):
+def table(counts, per_sphere_topics, folder, repeats):
     rows, base = [], None
     for count in counts:
         path = params_file(count, per_sphere_topics, Path(folder) / f's{count}.yaml')
-        first_pose, shutdown, resident = measure(path, count)
+        runs = [measure(path, count) for _ in range(repeats)]
+        first_poses = sorted(run[0] for run in runs)
+        first_pose = statistics.median(first_poses)
+        shutdown = statistics.median(run[1] for run in runs)
+        resident = statistics.median(run[2] for run in runs)
         core = core_resident_bytes(path)
         above_core = resident - core
         if base is None:
             base = (count, above_core)
         per_sphere = ((above_core - base[1]) / (count - base[0]) if count > base[0]
                       else float('nan'))
-        rows.append(f'| {count:,} | {first_pose:.2f} | {shutdown:.2f} | '
+        spread = ', '.join(f'{t:.2f}' for t in first_poses)
+        rows.append(f'| {count:,} | {first_pose:.2f} ({spread}) | {shutdown:.2f} | '
                     f'{resident / 2**20:.0f} | {core / 2**20:.0f} | {per_sphere:,.0f} |')
         print(rows[-1], flush=True)
     return rows
 
 
-HEADER = ('| spheres | first pose, s | shutdown, s | node resident, MiB | core alone, MiB | '
+HEADER = ('| spheres | first pose, s: median (each run) | shutdown, s | node resident, MiB | core alone, MiB | '
           'node above core, bytes per sphere (above the first row) |\n'
           '|---:|---:|---:|---:|---:|---:|')
 
@@ -140,6 +147,8 @@ def main():
     parser.add_argument('--spheres', default='100,1000,10000,100000')
     parser.add_argument('--per-sphere', default='100,1000,5000')
     parser.add_argument('--out', default='results/node/startup.md')
+    parser.add_argument('--repeats', type=int, default=3,
+                        help='node processes per row (medians; discovery varies by seconds)')
     args = parser.parse_args()
     lines = [__doc__.split('\n\n', 2)[2].strip(), '']
     with tempfile.TemporaryDirectory() as folder:
@@ -149,7 +158,7 @@ def main():
             title = f'per_sphere_topics: {"true" if flag else "false"}'
             print(f'\n{title}\n{HEADER}', flush=True)
             lines += [f'### {title}', '', HEADER]
-            lines += table([int(n) for n in counts.split(',')], flag, folder)
+            lines += table([int(n) for n in counts.split(',')], flag, folder, args.repeats)
             lines.append('')
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text('\n'.join(lines) + '\n')
