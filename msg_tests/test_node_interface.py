@@ -305,9 +305,11 @@ def test_spawn_and_remove_in_one_atomic_request_with_topics_that_come_and_go():
         assert ros.spin_until(lambda: odometry)
         poses = ros.collect(PoseArray, 'poses')
         assert ros.spin_until(lambda: poses and len(poses[-1].poses) == 3)
-        ros.spin_for(0.3)
-        topics = [t for t, _ in ros.client.get_topic_names_and_types()]
-        assert ros.topic('buoy/wrench') in topics
+        def topics():
+            return [t for t, _ in ros.client.get_topic_names_and_types()]
+        assert ros.spin_until(lambda: ros.topic('buoy/wrench') in topics()
+                              and ros.topic('cork/odom') not in topics()
+                              and ros.topic('cork/wrench') not in topics())
         publisher = ros.client.create_publisher(Wrench, ros.topic('buoy/wrench'), 10)
         assert ros.spin_until(lambda: publisher.get_subscription_count() > 0)
 
