@@ -17,7 +17,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
-from std_srvs.srv import SetBool
+from std_srvs.srv import SetBool, Trigger
 
 from pool_sim.physics import Scene
 from pool_sim.ros.simulator_node import PoolSimNode
@@ -247,6 +247,14 @@ def test_the_lift_area_follows_the_radius_until_it_is_set():
             ParameterMessage(name='ice', value=value_of(0.3))])).results[0]
         assert result.successful, result.reason
         assert ros.sim.get_parameter('ice.lift_area').value == pytest.approx(math.pi * 0.09)
+        assert ros.sim.simulation.spheres.lift_area[2] == pytest.approx(math.pi * 0.09)
+        assert set_one(ros, 'ice.radius', value_of(0.2)).successful  # still following
+        assert ros.sim.simulation.spheres.lift_area[2] == pytest.approx(math.pi * 0.04)
+        assert ros.sim.get_parameter('ice.lift_area').value == pytest.approx(math.pi * 0.04)
+        # A reset sets the table back and the area follows on.
+        assert ros.call(Trigger, 'reset', Trigger.Request()).success
+        assert ros.sim.get_parameter('ice.lift_area').value == pytest.approx(math.pi * 0.0225)
+        assert set_one(ros, 'ice.radius', value_of(0.3)).successful
         assert ros.sim.simulation.spheres.lift_area[2] == pytest.approx(math.pi * 0.09)
         assert set_one(ros, 'ice.lift_area', value_of(0.5)).successful
         assert set_one(ros, 'ice.radius', value_of(0.1)).successful

@@ -42,7 +42,7 @@ from pool_sim.ros.inputs import expired_forces, ForceInputs
 from pool_sim.ros.messages import LAST_STAMP_S, scene_markers, SphereMessages, stamp_of
 from pool_sim.ros.parameters import (ARRAY_PREFIX, array_parameter, as_declared_types,
                                      declare_scene, describe, is_read_only, is_ros_own,
-                                     LIVE_SPHERE_KEYS, overrides_of, params_files, plain,
+                                     doubles, LIVE_SPHERE_KEYS, overrides_of, params_files, plain,
                                      retable, scene_from_overrides, sphere_parameters)
 from pool_sim.ros.services import (guard_services, KNOWN_PARAMETER_TYPES, THROTTLE_S,
                                    unknown_type_reason)
@@ -390,6 +390,9 @@ class PoolSimNode(Node):
                 area = np.where(spheres.lift_area_follows_radius, math.pi * radius**2,
                                 spheres.lift_area)
                 extra.append(Parameter(f'{ARRAY_PREFIX}lift_area', value=area.tolist()))
+        # The parameter table shows them; the core's set_radius moves a following area
+        # itself, and setting it as given would stop it following.
+        self._following_lift_areas = {parameter.name for parameter in extra}
         return parameters + extra
 
     def _check_parameters(self, parameters):
@@ -404,7 +407,9 @@ class PoolSimNode(Node):
         return SetParametersResult(successful=True)
 
     def _plan(self, parameters):
-        values = {p.name: plain(p.value) for p in parameters if not is_ros_own(p.name)}
+        following = getattr(self, '_following_lift_areas', set())
+        values = {p.name: plain(p.value) for p in parameters
+                  if not is_ros_own(p.name) and p.name not in following}
         if 'sphere_names' in values and tuple(values['sphere_names'] or ()) != \
                 self.simulation.spheres.names:
             return self._plan_spheres(values)
@@ -600,18 +605,19 @@ class PoolSimNode(Node):
             if self.stamp_limit_reached:  # paused at the end of ROS time stamps: go on
                 self._set_paused(False)
                 self.stamp_limit_reached = False
-            # Only the parameters a live change moved go back (each set costs ~0.25 ms).
+            # The parameters of what a live change moved show the initial values again: the
+            # table is written directly (the simulation is already back, and a lift area
+            # set back as if given would stop following its radius).
             changed = []
             for key, before in live.items():
                 initial = getattr(self.simulation.spheres, key)
                 moved = np.flatnonzero(before != initial)
                 if moved.size and self.per_sphere:
-                    changed += [Parameter(f'{spheres.names[i]}.{key}', value=float(initial[i]))
-                                for i in moved]
+                    changed += [(f'{spheres.names[i]}.{key}', float(initial[i])) for i in moved]
                 elif moved.size:
-                    changed.append(Parameter(f'{ARRAY_PREFIX}{key}', value=initial.tolist()))
+                    changed.append((f'{ARRAY_PREFIX}{key}', doubles(initial)))
             if changed:
-                self.set_parameters_atomically(changed)
+                retable(self, changed=changed)
             self._publish_state()
             self.next_publish_time = self.publish_period
         response.success, response.message = True, 'back to the initial scene at time 0'
