@@ -370,3 +370,26 @@ def test_replacing_every_sphere_with_arrays_keeps_none_and_starts_the_new_ones()
         with ros.sim.lock:
             assert ros.sim.simulation.spheres.names == ('n0', 'n1')
             assert list(ros.sim.simulation.spheres.mass) == [1.0, 1.0]
+
+
+def test_a_spawn_by_set_parameters_as_ros2_param_load_sends_it_is_applied_together():
+    with Harness(FAST) as ros:
+        request = SetParameters.Request(parameters=[
+            ParameterMessage(name='buoy.position', value=value_of([1.0, 1.0, 2.0])),
+            ParameterMessage(name='cork.mass', value=value_of(9.0)),
+            ParameterMessage(name='sphere_names', value=value_of(['cork', 'buoy'])),
+            ParameterMessage(name='buoy.mass', value=value_of(2.0))])
+        results = ros.call(SetParameters, 'set_parameters', request).results
+        assert [r.successful for r in results] == [True] * 4, [r.reason for r in results]
+        with ros.sim.lock:
+            spheres = ros.sim.simulation.spheres
+            assert spheres.names == ('cork', 'buoy') and list(spheres.mass) == [9.0, 2.0]
+            assert ros.sim.scene['buoy.position'] == (1.0, 1.0, 2.0)
+        # A refused spawn: its entries all refused, the others set.
+        request = SetParameters.Request(parameters=[
+            ParameterMessage(name='sphere_names', value=value_of(['cork', 'buoy', 'x'])),
+            ParameterMessage(name='x.mass', value=value_of(-1.0)),
+            ParameterMessage(name='cork.mass', value=value_of(7.0))])
+        results = ros.call(SetParameters, 'set_parameters', request).results
+        assert [r.successful for r in results] == [False, False, True]
+        assert ros.sim.simulation.spheres.names == ('cork', 'buoy')

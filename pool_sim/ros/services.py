@@ -41,18 +41,22 @@ def unknown_type_reason(entry):
             '(ROS parameter types are 0 to 9)')
 
 
-def guard_services(node):
+def guard_services(node, around_set_parameters=None):
     """Every service of `node`, rclpy's parameter services too, answers every request.
 
     rclpy's set_parameters services raise on a value of an unknown type code and the
     exception ends the node: here such an entry is refused with a reason (and, atomically,
     the whole request). Whatever else a callback raises is logged and refused: a request
-    never takes the node down.
+    never takes the node down. around_set_parameters(callback) -> callback: the node's own
+    handling of a whole set_parameters request, around rclpy's entry by entry, inside the
+    guards.
     """
     for service in node.services:
         callback, service_type = service.callback, service.srv_type
         if service_type is SetParameters and service.srv_name.endswith('/set_parameters'):
             callback = _per_entry_with_known_types(callback)
+            if around_set_parameters is not None:
+                callback = around_set_parameters(callback)
         elif service_type is SetParametersAtomically:
             callback = _atomic_with_known_types(callback)
         callback = _bounded(node, service.srv_name, service_type, callback)

@@ -128,7 +128,7 @@ class PoolSimNode(Node):
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._planned = None  # what the last accepted parameter request changes
-        guard_services(self)
+        guard_services(self, around_set_parameters=self._spawn_together)
 
         # Wall seconds spent in each part, for the status line and the benchmarks.
         self.time_spent = {'physics': 0.0, 'build': 0.0, 'publish': 0.0}
@@ -556,6 +556,38 @@ class PoolSimNode(Node):
             f'{named_few(removed) or "none"}')
         if added:
             self._warn_if_unstable([self.simulation.spheres.lookup(name) for name in added])
+
+    def _spawn_together(self, set_each):
+        """rclpy's set_parameters service sets entry by entry; `ros2 param load` sends a
+        file's keys that way. A request that changes sphere_names sets it together with the
+        new spheres' keys (and the spheres.<key> arrays), in one atomic change, as a spawn
+        must be; the other entries go on one by one. Results stay in the request's order."""
+        def set_parameters(request, response):
+            entries = list(request.parameters)
+            names = [e for e in entries if e.name == 'sphere_names'
+                     and e.value.type == Parameter.Type.STRING_ARRAY.value]
+            if not names or tuple(names[-1].value.string_array_value) == \
+                    self.simulation.spheres.names:
+                return set_each(request, response)
+            new = set(names[-1].value.string_array_value) - set(self.simulation.spheres.names)
+            together = [i for i, e in enumerate(entries) if e.name == 'sphere_names'
+                        or e.name.rpartition('.')[0] in new or e.name.startswith(ARRAY_PREFIX)]
+            unknown = [entries[i] for i in together
+                       if entries[i].value.type not in KNOWN_PARAMETER_TYPES]
+            if unknown:
+                outcome = SetParametersResult(successful=False, reason=unknown_type_reason(
+                    unknown[0]) + '; nothing of the spawn was set')
+            else:
+                outcome = self.set_parameters_atomically(
+                    [Parameter.from_parameter_msg(entries[i]) for i in together])
+            rest = [e for i, e in enumerate(entries) if i not in set(together)]
+            each = set_each(SetParameters.Request(parameters=rest),
+                            SetParameters.Response()).results if rest else []
+            each = iter(each)
+            response.results = [outcome if i in set(together) else next(each)
+                                for i in range(len(entries))]
+            return response
+        return set_parameters
 
     def _on_set_sphere(self, key, request, response):
         """Each entry: name = sphere, value = new mass (kg) or radius (m); a result each.
