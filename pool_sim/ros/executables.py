@@ -10,6 +10,7 @@ import importlib
 import os
 import signal
 import sys
+import time
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _stopping = False
@@ -47,6 +48,16 @@ def _quiet_once_stopping(unraisable, previous_hook=sys.unraisablehook):
     # Once stopping, that is noise.
     if not _stopping:
         previous_hook(unraisable)
+
+
+def process_age_s():
+    """Seconds since this process started (Linux /proc), or None where that is unknown."""
+    try:
+        with open('/proc/self/stat') as stat:
+            started_ticks = int(stat.read().rsplit(')', 1)[1].split()[19])
+        return time.clock_gettime(time.CLOCK_BOOTTIME) - started_ticks / os.sysconf('SC_CLK_TCK')
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
 
 
 def take_signals():

@@ -37,7 +37,7 @@ from pool_sim.physics import fused, InvalidInput, Scene, Simulation
 from pool_sim.physics.scene import read_params_document, SPHERE_KEYS
 from pool_sim.physics.spheres import named_few, NAMES_SHOWN
 from pool_sim.physics.stability import stable_at, stable_step_bound
-from pool_sim.ros.executables import run_node
+from pool_sim.ros.executables import process_age_s, run_node
 from pool_sim.ros.inputs import expired_forces, ForceInputs
 from pool_sim.ros.messages import LAST_STAMP_S, scene_markers, SphereMessages, stamp_of
 from pool_sim.ros.parameters import (ARRAY_PREFIX, array_parameter, as_declared_types,
@@ -145,6 +145,10 @@ class PoolSimNode(Node):
         self.paused_wall_s, self.paused_since = 0.0, None
         self._publish_scene_markers()
         self._publish_state()
+        age = process_age_s()
+        if age is not None:
+            self.get_logger().info(f'first state published; this process started '
+                                   f'{age:.2f} s ago')
         tick_period = (max(self.simulation.max_step, self.publish_period)
                        / self.real_time_factor if self.real_time_factor > 0 else 0.0)
         self.tick_period = min(max(tick_period, TICK_PERIOD_RANGE_S[0]),
