@@ -29,6 +29,8 @@ from rclpy.executors import SingleThreadedExecutor
 
 WARM_UP_S = 2.0
 STARTUP_LIMIT_S = 900.0  # a row whose node sends no pose by then is reported as such
+# A DDS domain of its own: other participants on the machine must not share its traffic.
+DOMAIN_ID = 100 + os.getpid() % 100
 
 
 def spheres_params_file(count, path):
@@ -58,9 +60,10 @@ def measure(real_time_factor, seconds, params_file=None, odometry_of=0):
     node = subprocess.Popen(
         [sys.executable, '-m', 'pool_sim.ros.simulator_node', '--ros-args',
          '-p', f'real_time_factor:={real_time_factor}', '-r', f'__ns:={namespace}', *extra],
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, 'ROS_DOMAIN_ID': str(DOMAIN_ID)})
     context = Context()
-    rclpy.init(context=context)
+    rclpy.init(context=context, domain_id=DOMAIN_ID)
     try:
         client = rclpy.create_node('rate_client', context=context)
         executor = SingleThreadedExecutor(context=context)
@@ -166,7 +169,7 @@ def main():
           'node wall time in | client: poses / wall s |')
     print('|---:|---:|---:|---:|---:|---|---:|')
     with tempfile.TemporaryDirectory() as folder:
-        for count in (int(n) for n in args.spheres.split(',')):
+        for count in (int(n) for n in args.spheres.split(',') if n):
             params = spheres_params_file(count, Path(folder) / f'spheres{count}.yaml')
             try:
                 _, client_rate, _, cpu, (startup, shutdown), own, _ = measure(1.0, seconds, params)

@@ -301,8 +301,6 @@ class LiveNode(RuleBasedStateMachine):
             sphere, _, key = name.rpartition('.')
             if name == 'use_sim_time':
                 continue  # rclpy's own, declared by it: rclpy checks it
-            if name.startswith('qos_overrides.'):
-                continue  # a known node bug lets these through: see the xfail test below
             if name == 'sphere_names':
                 names = list(value.string_array_value)
                 expected = (value.type == ParameterType.PARAMETER_STRING_ARRAY
@@ -549,12 +547,9 @@ class LiveNode(RuleBasedStateMachine):
         self.states.clear()
 
 
-@pytest.mark.xfail(strict=True, reason='node bug: an undeclared qos_overrides.* name passes '
-                   "the node's check (is_ros_own) and rclpy stores it")
 def test_an_undeclared_qos_override_is_refused_like_any_unknown_name():
     # What the machine found first: `ros2 param set /pool_sim qos_overrides./clock.publisher
-    # .depth 5` succeeds, and the name then shows in `ros2 param list`. Once the node
-    # refuses it, drop this mark and the skip in ros2_param_set.
+    # .depth 5` succeeded, and the name then showed in `ros2 param list`.
     name = 'qos_overrides./clock.publisher.depth'  # publish_clock is off: not declared
     with Harness({'real_time_factor': 0.0}) as ros:
         value = ParameterValue(type=ParameterType.PARAMETER_INTEGER, integer_value=5)

@@ -97,9 +97,6 @@ class PoolSimNode(Node):
         self.per_sphere = scene['per_sphere_topics']
         declare_scene(self, scene, self.per_sphere)
         self.simulation = Simulation(scene)
-        # The physics loop on one thread (the clock's): the machine's other cores serve
-        # DDS, the executor and the subscribers.
-        fused.use_threads(1)
 
         self.real_time_factor = scene['real_time_factor']
         self.publish_period = 1.0 / scene['publish_rate_hz']
@@ -162,6 +159,7 @@ class PoolSimNode(Node):
             f'{"on" if self.per_sphere else "off"}')
         # Load the compiled kernel on a throwaway copy now, and start the clock after it and
         # after the set-up above: neither is the node falling behind.
+        fused.use_threads(1)
         Simulation(scene, initial_spheres=self.simulation.spheres.copy()).step()
         self.last_wall = self.started_wall = time.monotonic()
         self.next_status_wall = self.started_wall + STATUS_PERIOD_S
@@ -203,6 +201,10 @@ class PoolSimNode(Node):
     # -- the clock thread --------------------------------------------------------------------
 
     def _run_clock(self):
+        # The physics loop on one thread, this one (numba's thread count is per calling
+        # thread: set here, not where the node was built): the machine's other cores serve
+        # DDS, the executor and the subscribers.
+        fused.use_threads(1)
         while not self.clock_stop.is_set():
             try:
                 with self.lock:
@@ -411,6 +413,12 @@ class PoolSimNode(Node):
         return SetParametersResult(successful=True)
 
     def _plan(self, parameters):
+        for parameter in parameters:
+            if is_ros_own(parameter.name) and not self.has_parameter(parameter.name):
+                # rclpy's own names are rclpy's to take, once declared (a qos_overrides
+                # key is read_only); undeclared, they are names like any unknown one.
+                raise InvalidInput(unknown_key_reason(parameter.name, self.per_sphere,
+                                                      self.simulation.spheres.names))
         following = getattr(self, '_following_lift_areas', set())
         values = {p.name: plain(p.value) for p in parameters
                   if not is_ros_own(p.name) and p.name not in following}
