@@ -109,7 +109,8 @@ def measure(real_time_factor, seconds, params_file=None, odometry_of=0):
 
 
 STATUS = re.compile(r'([\d.]+) s simulated in ([\d.]+) s running .*?, (\d+) steps, '
-                    r'(\d+) publishes, ([\d.]+) s given up to the catch-up bound, \d+ '
+                    r'(\d+) publishes \(\d+ odometry sets left out for slow subscribers\), '
+                    r'([\d.]+) s given up to the catch-up bound, \d+ '
                     r'put-backs by the step guard; wall time in (.*)$', re.MULTILINE)
 
 

@@ -6,6 +6,7 @@ This module imports nothing heavy. It takes SIGINT and SIGTERM before the node's
 wherever it is (importing, building the node, spinning), and run_node cleans up. From the
 clean-up on, a further signal ends the process at once.
 """
+import gc
 import importlib
 import os
 import signal
@@ -48,6 +49,9 @@ def _quiet_once_stopping(unraisable, previous_hook=sys.unraisablehook):
     # Once stopping, that is noise.
     if not _stopping:
         previous_hook(unraisable)
+
+
+SWITCH_INTERVAL_S = 0.0005
 
 
 def process_age_s():
@@ -100,6 +104,10 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
     from rclpy.signals import SignalHandlerOptions
 
     take_signals()  # already taken when started through pool_sim() or depth_keeper()
+    # The node's threads (clock, executor, odometry) share one interpreter lock; a thread
+    # that wants it waits up to this long for a busy one to let go (CPython's default is
+    # 5 ms, a sixth of a publish period at 30 Hz). The process is the node's: it sets it.
+    sys.setswitchinterval(SWITCH_INTERVAL_S)
     node, executor, code = None, None, 0
     try:
         stop_if_asked()
@@ -111,6 +119,10 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
             raise refused(str(error).splitlines()[0]) from None
         stop_if_asked()
         node = make_node()
+        # Everything built so far lives as long as the node: out of the collector's full
+        # passes, which walked it all (tens of ms at thousands of spheres) while the clock
+        # thread waited.
+        gc.freeze()
         executor = SingleThreadedExecutor(context=node.context)
         executor.add_node(node)
         # As rclpy.spin, but looking at _stopping too: a Stop that lands in a __del__ or a
