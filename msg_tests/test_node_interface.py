@@ -393,3 +393,34 @@ def test_a_spawn_by_set_parameters_as_ros2_param_load_sends_it_is_applied_togeth
         results = ros.call(SetParameters, 'set_parameters', request).results
         assert [r.successful for r in results] == [False, False, True]
         assert ros.sim.simulation.spheres.names == ('cork', 'buoy')
+
+
+def test_a_radius_of_the_wrong_type_or_beyond_range_is_refused_not_raised():
+    with Harness(FAST) as ros:
+        for name, value in (('cork.radius', [0.1, 0.2]), ('cork.radius', 1e200),
+                            ('cork.radius', -1.0)):
+            results = ros.call(SetParameters, 'set_parameters', SetParameters.Request(
+                parameters=[ParameterMessage(name='cork.mass', value=value_of(2.5)),
+                            ParameterMessage(name=name, value=value_of(value))])).results
+            assert results[0].successful and not results[1].successful
+            assert 'raised' not in results[1].reason, results[1].reason
+        assert ros.sim.simulation.spheres.radius[0] == 0.2
+    with Harness({**FAST, 'per_sphere_topics': False}) as ros:
+        refused = set_one(ros, 'spheres.radius', value_of(0.3))
+        assert not refused.successful and 'raised' not in refused.reason
+
+
+def test_array_lift_areas_given_with_new_radii_are_applied_as_given():
+    with Harness({**FAST, 'per_sphere_topics': False}) as ros:
+        with ros.sim.lock:
+            radius = ros.sim.simulation.spheres.radius.tolist()
+            areas = ros.sim.simulation.spheres.lift_area.tolist()
+        assert atomically(ros, spheres__radius=[r * 1.5 for r in radius],
+                          spheres__lift_area=areas).successful
+        with ros.sim.lock:
+            assert ros.sim.simulation.spheres.lift_area.tolist() == areas
+            assert list(ros.sim.get_parameter('spheres.lift_area').value) == areas
+        # A radius alone: the areas follow, in the table too.
+        assert atomically(ros, spheres__radius=radius).successful
+        with ros.sim.lock:
+            assert ros.sim.simulation.spheres.lift_area.tolist() == areas

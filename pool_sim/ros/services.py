@@ -54,7 +54,7 @@ def guard_services(node, around_set_parameters=None):
     for service in node.services:
         callback, service_type = service.callback, service.srv_type
         if service_type is SetParameters and service.srv_name.endswith('/set_parameters'):
-            callback = _per_entry_with_known_types(callback)
+            callback = _per_entry_with_known_types(callback, node)
             if around_set_parameters is not None:
                 callback = around_set_parameters(callback)
         elif service_type is SetParametersAtomically:
@@ -85,12 +85,21 @@ def _bounded(node, name, service_type, callback):
     return bounded
 
 
-def _per_entry_with_known_types(callback):
+def _per_entry_with_known_types(callback, node=None):
     def set_parameters(request, response):
         for entry in request.parameters:
             if entry.value.type in KNOWN_PARAMETER_TYPES:
-                one = callback(SetParameters.Request(parameters=[entry]),
-                               SetParameters.Response())
+                try:
+                    one = callback(SetParameters.Request(parameters=[entry]),
+                                   SetParameters.Response())
+                except Exception as error:  # this entry's result: those before it stand
+                    reason = (f'{shortened(entry.name)}: raised {type(error).__name__}: '
+                              f'{shown(str(error))}')
+                    if node is not None:
+                        node.get_logger().error(reason, throttle_duration_sec=THROTTLE_S)
+                    response.results.append(SetParametersResult(successful=False,
+                                                                reason=reason))
+                    continue
                 response.results.extend(one.results)
             else:
                 response.results.append(SetParametersResult(

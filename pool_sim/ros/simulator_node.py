@@ -35,7 +35,7 @@ from visualization_msgs.msg import MarkerArray
 
 from pool_sim.physics import fused, InvalidInput, Scene, Simulation
 from pool_sim.physics.scene import read_params_document, SPHERE_KEYS
-from pool_sim.physics.spheres import named_few, NAMES_SHOWN
+from pool_sim.physics.spheres import named_few, NAMES_SHOWN, RADIUS_RANGE_M
 from pool_sim.physics.stability import stable_at, stable_step_bound
 from pool_sim.ros.executables import process_age_s, run_node
 from pool_sim.ros.inputs import expired_forces, ForceInputs
@@ -391,18 +391,21 @@ class PoolSimNode(Node):
         extra = []
         for parameter in parameters:
             value = parameter.value
-            if parameter.type_ not in (Parameter.Type.DOUBLE, Parameter.Type.DOUBLE_ARRAY):
-                continue
-            if self.per_sphere and parameter.name.endswith('.radius'):
+            # Only a radius of the right type and within its range brings an area along;
+            # anything else is left for rclpy's and our checks to refuse, with their reason.
+            if (self.per_sphere and parameter.name.endswith('.radius')
+                    and parameter.type_ == Parameter.Type.DOUBLE
+                    and RADIUS_RANGE_M[0] <= value <= RADIUS_RANGE_M[1]):
                 sphere = parameter.name[:-len('.radius')]
                 i = spheres.index.get(sphere)
                 if (i is not None and spheres.lift_area_follows_radius[i]
-                        and f'{sphere}.lift_area' not in given and math.isfinite(value)):
-                    extra.append(Parameter(f'{sphere}.lift_area', value=math.pi * value**2))
+                        and f'{sphere}.lift_area' not in given):
+                    extra.append(Parameter(f'{sphere}.lift_area', value=math.pi * value * value))
             elif (not self.per_sphere and parameter.name == f'{ARRAY_PREFIX}radius'
+                  and parameter.type_ == Parameter.Type.DOUBLE_ARRAY
                   and f'{ARRAY_PREFIX}lift_area' not in given
                   and 'sphere_names' not in given and len(value) == spheres.count):
-                radius = np.asarray(value, dtype=float)
+                radius = np.clip(np.asarray(value, dtype=float), *RADIUS_RANGE_M)
                 area = np.where(spheres.lift_area_follows_radius, math.pi * radius**2,
                                 spheres.lift_area)
                 extra.append(Parameter(f'{ARRAY_PREFIX}lift_area', value=area.tolist()))
@@ -420,6 +423,8 @@ class PoolSimNode(Node):
             except InvalidInput as error:
                 self._planned = None
                 return SetParametersResult(successful=False, reason=str(error))
+            finally:
+                self._following_lift_areas = set()  # this request's only
         return SetParametersResult(successful=True)
 
     def _plan(self, parameters):
@@ -446,7 +451,7 @@ class PoolSimNode(Node):
             if name == 'sphere_names':
                 continue
             if not self.per_sphere and name.startswith(ARRAY_PREFIX):
-                changes += self._live_array_changes(name, value, scene)
+                changes += self._live_array_changes(name, value, scene, values)
                 continue
             sphere, _, key = name.rpartition('.')
             if sphere not in spheres.index or key not in SPHERE_KEYS or not self.per_sphere:
@@ -456,7 +461,7 @@ class PoolSimNode(Node):
             changes.append((sphere, key, check_live(spheres, pool, sphere, key, value)))
         return changes
 
-    def _live_array_changes(self, name, value, scene):
+    def _live_array_changes(self, name, value, scene, values):
         found = array_parameter(name)
         if found is None:
             raise InvalidInput(unknown_key_reason(name, False, scene.sphere_names))
@@ -470,7 +475,15 @@ class PoolSimNode(Node):
                                    f'{", ".join(ARRAY_PREFIX + k for k in LIVE_SPHERE_KEYS)} '
                                    'can, and sphere_names, to add and remove spheres)')
             return []
-        changed = np.flatnonzero(~(rows == getattr(spheres, key)))  # NaN counts as changed
+        current = getattr(spheres, key)
+        if key == 'lift_area':
+            # Given where it differs from what it would be after this request: a following
+            # area moves with a radius in the same request (an edited dump loaded at once).
+            radius = values.get(f'{ARRAY_PREFIX}radius')
+            radius = (spheres.radius if radius is None
+                      else as_rows(f'{ARRAY_PREFIX}radius', radius, spheres.count))
+            current = np.where(spheres.lift_area_follows_radius, np.pi * radius**2, current)
+        changed = np.flatnonzero(~(rows == current))  # NaN counts as changed
         return [(spheres.names[i], key, check_live(spheres, pool, spheres.names[i], key,
                                                    float(rows[i]))) for i in changed]
 
