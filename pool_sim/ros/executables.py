@@ -54,6 +54,20 @@ def _quiet_once_stopping(unraisable, previous_hook=sys.unraisablehook):
 SWITCH_INTERVAL_S = 0.0005
 
 
+def _return_large_buffers():
+    """glibc raises its mmap threshold to the largest block freed so far, so after one
+    publish of a large scene the per-publish copies (serialized bytes, rcl's copy) stay
+    in the heap for good; a fixed threshold hands every one back when it is freed
+    (measured: 1.7 instead of 2.05 kB a sphere at 10 000 spheres, 1.1 instead of 1.9 at
+    100 000)."""
+    try:
+        import ctypes
+        libc = ctypes.CDLL('libc.so.6')
+        libc.mallopt(-3, 256 * 1024)  # M_MMAP_THRESHOLD, bytes
+    except (OSError, AttributeError):
+        pass  # not glibc: its own policy applies
+
+
 def process_age_s():
     """Seconds since this process started (Linux /proc), or None where that is unknown."""
     try:
@@ -123,6 +137,7 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
         # passes, which walked it all (tens of ms at thousands of spheres) while the clock
         # thread waited.
         gc.freeze()
+        _return_large_buffers()  # after start-up: rcl's params parser reallocs a list per number
         executor = SingleThreadedExecutor(context=node.context)
         executor.add_node(node)
         # As rclpy.spin, but looking at _stopping too: a Stop that lands in a __del__ or a
