@@ -22,7 +22,6 @@ from geometry_msgs.msg import PoseArray, Wrench, WrenchStamped
 from hypothesis import event, HealthCheck, settings, strategies as st
 from hypothesis.stateful import initialize, invariant, rule, RuleBasedStateMachine
 import numpy as np
-import pytest
 from rcl_interfaces.msg import Parameter as ParameterMessage, ParameterType, ParameterValue
 from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
 from rclpy.parameter import Parameter, parameter_value_to_python
@@ -281,14 +280,18 @@ class LiveNode(RuleBasedStateMachine):
         results = self.call(f'set_{key}', request).results
         assert len(results) == len(entries)
         for (name, value), result in zip(entries, results):
-            python = (parameter_value_to_python(value) if value.type in (
-                ParameterType.PARAMETER_DOUBLE, ParameterType.PARAMETER_INTEGER) else None)
-            assert result.successful == self.live_change_ok(name, key, python), \
-                (name, python, result.reason)
-            if result.successful:
-                self.expected[name][key] = float(python)
-            else:
-                self.assert_refused_with_reason(result)
+            self.check_live_result(name, key, value, result)
+
+    def check_live_result(self, sphere, key, value, result):
+        """One entry's answer to a live mass or radius change, against the model."""
+        python = (parameter_value_to_python(value) if value.type in (
+            ParameterType.PARAMETER_DOUBLE, ParameterType.PARAMETER_INTEGER) else None)
+        assert result.successful == self.live_change_ok(sphere, key, python), \
+            (sphere, key, python, result.reason)
+        if result.successful:
+            self.expected[sphere][key] = float(python)
+        else:
+            self.assert_refused_with_reason(result)
 
     @rule(entries=st.lists(st.tuples(PARAMETER_NAMES, parameter_values()), max_size=3))
     def ros2_param_set(self, entries):
@@ -309,14 +312,7 @@ class LiveNode(RuleBasedStateMachine):
                 if result.successful:
                     self.names_changed_to(names)
                 continue
-            python = (parameter_value_to_python(value) if value.type in (
-                ParameterType.PARAMETER_DOUBLE, ParameterType.PARAMETER_INTEGER) else None)
-            assert result.successful == self.live_change_ok(sphere, key, python), \
-                (name, python, result.reason)
-            if result.successful:
-                self.expected[sphere][key] = float(python)
-            else:
-                self.assert_refused_with_reason(result)
+            self.check_live_result(sphere, key, value, result)
 
     @rule(data=st.data(), key=st.sampled_from(['mass', 'radius']), integer=ANY_INTEGER)
     def integer_by_ros2_param_set(self, data, key, integer):

@@ -262,6 +262,15 @@ def check_sphere_names(value) -> tuple:
     return names
 
 
+def check_some_sphere_names(value) -> tuple:
+    """As check_sphere_names, and at least one: what a node runs and spawns (a Scene of no
+    spheres is fine for the core)."""
+    names = check_sphere_names(value)
+    if not names:
+        raise InvalidInput('sphere_names: the node needs at least one sphere, got []')
+    return names
+
+
 def _all_free_tokens(names: tuple) -> bool:
     """True when every name is a valid ROS name token and none is reserved, checked at once
     (a newline inside a name shows as one newline too many)."""
@@ -512,9 +521,7 @@ class Scene:
         it is `names`. The global keys stay this scene's (with_values changes those).
         """
         given = flatten(given or {})
-        names = check_sphere_names(names)
-        if not names:
-            raise InvalidInput('sphere_names: the node needs at least one sphere, got []')
+        names = check_some_sphere_names(names)
         for key, value in given.items():
             if key == 'sphere_names':
                 if check_sphere_names(value) != names:

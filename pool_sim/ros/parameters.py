@@ -22,7 +22,8 @@ import numpy as np
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, ParameterEvent
 from rclpy.parameter import Parameter
 
-from pool_sim.physics.scene import COMPONENTS, GLOBAL_KEYS, InvalidInput, Scene, SPHERE_KEYS
+from pool_sim.physics.scene import (check_some_sphere_names, COMPONENTS, GLOBAL_KEYS, Scene,
+                                    SPHERE_KEYS)
 from pool_sim.physics.spheres import range_words
 
 # Parameters rclpy itself declares or reads; they are not part of the scene.
@@ -66,11 +67,8 @@ def scene_from_overrides(overrides: dict, default: Scene) -> Scene:
     adds start from the schema's defaults.
     """
     overrides = {name: value for name, value in overrides.items() if not is_ros_own(name)}
-    names = overrides.get('sphere_names', default.sphere_names)
-    if names is None:  # an empty YAML list arrives as a parameter that is not set
-        raise InvalidInput('sphere_names: the node needs at least one sphere, got []')
-    # A wrong type is left for Scene to refuse, naming the key.
-    names = tuple(names) if isinstance(names, (list, tuple)) else ()
+    # An empty YAML list arrives as a parameter that is not set (None): refused as [].
+    names = check_some_sphere_names(overrides.get('sphere_names', default.sphere_names))
     params = dict(default.global_values())
     as_arrays = {name[len(ARRAY_PREFIX):].partition('.')[0] for name in overrides
                  if name.startswith(ARRAY_PREFIX)}

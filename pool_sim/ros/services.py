@@ -108,13 +108,22 @@ def _per_entry_with_known_types(callback, node=None):
     return set_parameters
 
 
+def unknown_type_refusal(entries, nothing='nothing'):
+    """The refusal of an all-or-nothing request with an entry of unknown type code, or
+    None when every entry's type is known."""
+    for entry in entries:
+        if entry.value.type not in KNOWN_PARAMETER_TYPES:
+            return SetParametersResult(successful=False,
+                                       reason=f'{unknown_type_reason(entry)}; {nothing} was set')
+    return None
+
+
 def _atomic_with_known_types(callback):
     def set_parameters_atomically(request, response):
-        for entry in request.parameters:
-            if entry.value.type not in KNOWN_PARAMETER_TYPES:
-                response.result = SetParametersResult(
-                    successful=False, reason=unknown_type_reason(entry) + '; nothing was set')
-                return response
+        refused = unknown_type_refusal(request.parameters)
+        if refused is not None:
+            response.result = refused
+            return response
         return callback(request, response)
     return set_parameters_atomically
 

@@ -34,7 +34,7 @@ from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
 from pool_sim.physics import fused, InvalidInput, Scene, Simulation
-from pool_sim.physics.scene import read_params_document, SPHERE_KEYS
+from pool_sim.physics.scene import check_some_sphere_names, read_params_document, SPHERE_KEYS
 from pool_sim.physics.spheres import named_few, NAMES_SHOWN, RADIUS_RANGE_M
 from pool_sim.physics.stability import stable_at, stable_step_bound
 from pool_sim.ros.executables import process_age_s, run_node
@@ -45,7 +45,7 @@ from pool_sim.ros.parameters import (ARRAY_PREFIX, array_parameter, as_declared_
                                      doubles, LIVE_SPHERE_KEYS, overrides_of, params_files, plain,
                                      retable, scene_from_overrides, sphere_parameters)
 from pool_sim.ros.services import (guard_services, KNOWN_PARAMETER_TYPES, THROTTLE_S,
-                                   unknown_type_reason)
+                                   unknown_type_reason, unknown_type_refusal)
 
 # Wall time one tick may spend stepping, in every mode, so services stay responsive.
 TICK_BUDGET_S = 0.02
@@ -130,6 +130,7 @@ class PoolSimNode(Node):
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._planned = None  # what the last accepted parameter request changes
+        self._following_lift_areas = set()  # names the pre-set callback added to a request
         guard_services(self, around_set_parameters=self._spawn_together)
 
         # Wall seconds spent in each part, for the status line and the benchmarks.
@@ -142,7 +143,7 @@ class PoolSimNode(Node):
         # True once simulated time reached the last second a ROS stamp holds (then paused).
         self.stamp_limit_reached = False
         self.next_recovery_log_wall = 0.0
-        self.started_wall = time.monotonic()  # all three set again once set-up is done
+        self.started_wall = time.monotonic()  # both set again once set-up is done
         self.next_status_wall = self.started_wall + STATUS_PERIOD_S
         self.paused_wall_s, self.paused_since = 0.0, None
         self._publish_scene_markers()
@@ -168,7 +169,6 @@ class PoolSimNode(Node):
         Simulation(scene, initial_spheres=self.simulation.spheres.copy()).step()
         self.last_wall = self.started_wall = time.monotonic()
         self.next_status_wall = self.started_wall + STATUS_PERIOD_S
-        self.paused_wall_s, self.paused_since = 0.0, None
         self.next_paused_publish = 0.0
         self.clock_stop, self.clock_wake = threading.Event(), threading.Event()
         self.clock_thread = threading.Thread(target=self._run_clock, name='pool_sim_clock',
@@ -434,9 +434,8 @@ class PoolSimNode(Node):
                 # key is read_only); undeclared, they are names like any unknown one.
                 raise InvalidInput(unknown_key_reason(parameter.name, self.per_sphere,
                                                       self.simulation.spheres.names))
-        following = getattr(self, '_following_lift_areas', set())
         values = {p.name: plain(p.value) for p in parameters
-                  if not is_ros_own(p.name) and p.name not in following}
+                  if not is_ros_own(p.name) and p.name not in self._following_lift_areas}
         if 'sphere_names' in values and tuple(values['sphere_names'] or ()) != \
                 self.simulation.spheres.names:
             return self._plan_spheres(values)
@@ -445,7 +444,7 @@ class PoolSimNode(Node):
     def _live_changes(self, values, scene):
         """[(sphere, key, value)] of a request's live keys, each checked; InvalidInput for
         anything that cannot change while running."""
-        spheres, pool = self.simulation.spheres, self.simulation.environment.pool
+        spheres = self.simulation.spheres
         changes = []
         for name, value in values.items():
             if name == 'sphere_names':
@@ -456,10 +455,17 @@ class PoolSimNode(Node):
             sphere, _, key = name.rpartition('.')
             if sphere not in spheres.index or key not in SPHERE_KEYS or not self.per_sphere:
                 raise InvalidInput(unknown_key_reason(name, self.per_sphere, spheres.names))
-            if key not in LIVE_SPHERE_KEYS:
-                raise InvalidInput(f'{name}: cannot change while running')
-            changes.append((sphere, key, check_live(spheres, pool, sphere, key, value)))
+            changes.append(self._live_change(name, value))
         return changes
+
+    def _live_change(self, name, value):
+        """(sphere, key, checked value) of a kept sphere's '<sphere>.<key>', or InvalidInput
+        if the key cannot change while running or the value is refused."""
+        sphere, _, key = name.rpartition('.')
+        if key not in LIVE_SPHERE_KEYS:
+            raise InvalidInput(f'{name}: cannot change while running')
+        return sphere, key, check_live(self.simulation.spheres,
+                                       self.simulation.environment.pool, sphere, key, value)
 
     def _live_array_changes(self, name, value, scene, values):
         found = array_parameter(name)
@@ -491,12 +497,7 @@ class PoolSimNode(Node):
         """Spawn and remove: the new scene, and the live changes of the spheres kept. The
         new scene keeps the kept spheres' initial values (reset goes back to them); keys of
         a kept sphere in the request are live changes, as in any other request."""
-        names = values['sphere_names']
-        if names is None or names == []:
-            raise InvalidInput('sphere_names: the node needs at least one sphere, got []')
-        if not isinstance(names, (list, tuple)) or not all(isinstance(n, str) for n in names):
-            raise InvalidInput(f'sphere_names: expected a list of strings, got {names!r}')
-        names = tuple(names)
+        names = check_some_sphere_names(values['sphere_names'])
         index = self.simulation.spheres.index
         given, live = {}, {}
         if self.per_sphere:
@@ -535,14 +536,8 @@ class PoolSimNode(Node):
                 rows[new_at] = initial
                 given[name] = rows.tolist()
         scene = self.scene.with_spheres(names, given)
-        spheres, pool = self.simulation.spheres, self.simulation.environment.pool
-        changes = []
-        for name, value in live.items():
-            sphere, _, key = name.rpartition('.')
-            if key not in LIVE_SPHERE_KEYS:
-                raise InvalidInput(f'{name}: cannot change while running')
-            changes.append((sphere, key, check_live(spheres, pool, sphere, key, value)))
-        return {'scene': scene, 'live': changes}
+        return {'scene': scene,
+                'live': [self._live_change(name, value) for name, value in live.items()]}
 
     def _apply_parameters(self, parameters):
         with self.lock:
@@ -607,12 +602,9 @@ class PoolSimNode(Node):
             new = set(names[-1].value.string_array_value) - set(self.simulation.spheres.names)
             together = [i for i, e in enumerate(entries) if e.name == 'sphere_names'
                         or e.name.rpartition('.')[0] in new or e.name.startswith(ARRAY_PREFIX)]
-            unknown = [entries[i] for i in together
-                       if entries[i].value.type not in KNOWN_PARAMETER_TYPES]
-            if unknown:
-                outcome = SetParametersResult(successful=False, reason=unknown_type_reason(
-                    unknown[0]) + '; nothing of the spawn was set')
-            else:
+            outcome = unknown_type_refusal([entries[i] for i in together],
+                                           'nothing of the spawn')
+            if outcome is None:
                 outcome = self.set_parameters_atomically(
                     [Parameter.from_parameter_msg(entries[i]) for i in together])
             rest = [e for i, e in enumerate(entries) if i not in set(together)]
