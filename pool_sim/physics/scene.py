@@ -75,6 +75,9 @@ PHYSICS_RATE_RANGE = (1.0, 1e5)  # Hz: steps from 1 s to 10 us
 PUBLISH_RATE_RANGE = (0.01, 1e4)  # Hz of simulated time
 REAL_TIME_FACTOR_RANGE = (0.0, 1e4)  # 0 = as fast as the machine goes
 WRENCH_TIMEOUT_RANGE = (0.0, 1e6)  # s of simulated time; 0 = for ever
+LOCKSTEP_TIMEOUT_RANGE = (1e-3, 1e4)  # wall s; a dead controller costs at most this once
+# The name of the ~/forces input (every sphere at once) in lockstep_inputs; no sphere takes it.
+FORCES_INPUT = 'forces'
 
 
 def _vector(default, description, limit, unit):
@@ -125,6 +128,15 @@ GLOBAL_KEYS = {
                              'a non-empty string of at most 256 characters')),
     'wrench_timeout': Key('number', 1.0, 'simulated seconds a wrench holds without a new '
                           'message, 0 = for ever', *WRENCH_TIMEOUT_RANGE, 's'),
+    'lockstep': Key('bool', False, 'after each publish, step on only once every input of '
+                    'lockstep_inputs has answered that instant (or lockstep_timeout passed)'),
+    'lockstep_inputs': Key('strings', (), 'the inputs lockstep waits for: sphere names (a '
+                           f'force on ~/wrench or ~/<sphere>/wrench) and {FORCES_INPUT!r} '
+                           '(~/forces)',
+                           allowed=(lambda v: len(set(v)) == len(v), 'names without repeats')),
+    'lockstep_timeout': Key('number', 5.0, 'wall seconds lockstep waits for an input before '
+                            'it goes on without it (until it answers again)',
+                            *LOCKSTEP_TIMEOUT_RANGE, 's'),
 }
 
 SPHERE_KEYS = {
@@ -143,12 +155,16 @@ SPHERE_KEYS = {
                         'a non-zero vector')),
     'lift_coefficient': Key('number', 0.0, 'lift coefficient C_l', *LIFT_COEFFICIENT_RANGE),
 }
+# Keys of the node's that may change while it runs; the physics never reads them.
+LOCKSTEP_KEYS = ('lockstep', 'lockstep_inputs', 'lockstep_timeout')
 # First name parts a sphere may not take: its keys would clash with these parameters (or
 # parameter groups) of the node or of rclpy in a params file.
-# 'spheres' holds the array form of the per-sphere keys.
+# 'spheres' holds the array form of the per-sphere keys; 'forces' names ~/forces in
+# lockstep_inputs.
 RESERVED_NAMES = frozenset(
     {key.split('.')[0] for key in GLOBAL_KEYS}
-    | {'spheres', 'use_sim_time', 'qos_overrides', 'start_type_description_service'})
+    | {'spheres', 'use_sim_time', 'qos_overrides', 'start_type_description_service',
+       FORCES_INPUT})
 ARRAY_PREFIX = 'spheres.'
 COMPONENTS = ('x', 'y', 'z')
 # Types numpy converts exactly as float() does, so a list of only these is checked as one
@@ -254,7 +270,9 @@ def check_sphere_names(value) -> tuple:
         check_sphere_name(name)
         if name in RESERVED_NAMES:
             raise InvalidInput(f'sphere_names: {name!r} is taken by a parameter of the '
-                               f'node or of ROS; reserved: {sorted(RESERVED_NAMES)}')
+                               'node or of ROS; reserved: the first part of every global '
+                               'key (gravity, water, pool, lockstep, ...), spheres, forces, '
+                               'use_sim_time, qos_overrides, start_type_description_service')
     if len(set(names)) != len(names):
         repeated = sorted(name for name, count in Counter(names).items() if count > 1)
         raise InvalidInput(f'sphere_names: names must be unique; repeated: '
@@ -518,7 +536,8 @@ class Scene:
         A sphere this scene has keeps its values but for the keys `given` gives; a new one
         takes the given values or the schema defaults. given: per-sphere keys in either form
         ('cork.mass', or 'spheres.mass' over `names`), flat or nested; sphere_names only if
-        it is `names`. The global keys stay this scene's (with_values changes those).
+        it is `names`. The global keys stay this scene's (with_values changes those) but for
+        the lockstep keys, which name spheres, so they change with them.
         """
         given = flatten(given or {})
         names = check_some_sphere_names(names)
@@ -527,9 +546,10 @@ class Scene:
                 if check_sphere_names(value) != names:
                     raise InvalidInput(f'sphere_names: {shown(value)} is not the names '
                                        f'given to with_spheres ({named_few(names)})')
-            elif key in GLOBAL_KEYS:
+            elif key in GLOBAL_KEYS and key not in LOCKSTEP_KEYS:
                 raise InvalidInput(f'{key}: a global key; with_spheres changes the spheres '
-                                   'only (with_values changes the rest)')
+                                   'and the lockstep keys, which name them, only '
+                                   '(with_values changes the rest)')
         return self._derived(names, given)
 
     def _derived(self, names: tuple, changes: dict) -> 'Scene':
@@ -559,6 +579,12 @@ class Scene:
                                'contact.static_friction')
         if 'friction' in self['effects'] and 'contact' not in self['effects']:
             raise InvalidInput('effects: friction acts through floor contact; list contact too')
+        unknown = [name for name in self['lockstep_inputs']
+                   if name != FORCES_INPUT and name not in self._index]
+        if unknown:
+            raise InvalidInput(f'lockstep_inputs: {named_few(unknown)} not in sphere_names '
+                               f'({named_few(self.sphere_names)}) nor {FORCES_INPUT!r}: each '
+                               'entry is a sphere whose force answers, or the ~/forces array')
         radius, position = self._arrays['radius'], self._arrays['position']
         too_big = 2.0 * radius >= float(np.min(high - low))
         outside = (np.any(position < low + radius[:, None], axis=1)

@@ -12,6 +12,7 @@ from . import fused
 from .contact import resolve_contacts
 from .effects import Dynamics
 from .integrators import INTEGRATORS
+from .scene import LOCKSTEP_KEYS
 from .media import cap_volume_integral, linear_volume_integral
 from .spheres import InvalidInput, shown
 from .stability import stable_step_bound
@@ -153,7 +154,7 @@ class Simulation:
         external force; time goes on. reset() then returns to the new scene at time 0.
         """
         for key, value in scene.global_values().items():
-            if key != 'sphere_names' and value != self.scene[key]:
+            if key != 'sphere_names' and key not in LOCKSTEP_KEYS and value != self.scene[key]:
                 raise InvalidInput(f'{key}: change_spheres changes the spheres only; the new '
                                    f'scene has {shown(value)}, the running one '
                                    f'{shown(self.scene[key])}')

@@ -92,6 +92,9 @@ def range_words(low, high, unit='') -> str:
 
 def check_vector(name: str, value, low, high, unit='') -> np.ndarray:
     """Three finite numbers, each within [low, high], or InvalidInput naming `name`."""
+    if type(value) in (tuple, list) and len(value) == 3 and all(
+            type(c) is float and low <= c <= high for c in value):
+        return np.array(value)  # the common case, a message's three doubles: at once
     components = list(value) if isinstance(value, (list, tuple, np.ndarray)) else None
     if components is None or len(components) != 3 or not all(map(is_number, components)):
         raise InvalidInput(f'{name}: expected 3 numbers [x, y, z], got {shown(value)}')
