@@ -12,7 +12,7 @@ import sys
 import threading
 import time
 
-from geometry_msgs.msg import Wrench
+from geometry_msgs.msg import WrenchStamped
 from hypothesis import given, settings, strategies as st
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterType
@@ -51,8 +51,13 @@ class Keeper(Harness):
             SetParameters, f'{self.namespace}/depth_keeper/set_parameters')
         return self
 
-    def collect(self, relative):
-        return super().collect(Wrench, relative)
+    def collect(self, sphere):
+        """The forces (Wrench) the keeper sends for `sphere`, on ~/wrench (WrenchStamped)."""
+        received = []
+        self.client.create_subscription(
+            WrenchStamped, self.topic('wrench'),
+            lambda m: received.append(m.wrench) if m.header.frame_id == sphere else None, 10)
+        return received
 
     def set_remotely(self, **values):
         """As `ros2 param set` does: through the node's SetParameters service."""
@@ -199,7 +204,7 @@ def test_setting_sphere_at_run_time_lets_go_of_the_old_one_and_holds_the_new_one
     with Keeper({'sphere': 'ice', 'ki': 10.0}) as ros:
         ice_odometry = ros.client.create_publisher(Odometry, ros.topic('ice/odom'), 10)
         steel_odometry = ros.client.create_publisher(Odometry, ros.topic('steel/odom'), 10)
-        ice_wrenches, steel_wrenches = ros.collect('ice/wrench'), ros.collect('steel/wrench')
+        ice_wrenches, steel_wrenches = ros.collect('ice'), ros.collect('steel')
         # Holding ice, 1 m too high for 2 s: the integral term has built up.
         assert publish_until(ros, ice_odometry, odometry(0.0, t=0.0), ice_wrenches)
         for t in (1.0, 2.0):
@@ -209,7 +214,7 @@ def test_setting_sphere_at_run_time_lets_go_of_the_old_one_and_holds_the_new_one
         [result] = ros.set_remotely(sphere='steel')
         assert result.successful
         assert ros.keeper.subscription.topic_name == ros.topic('steel/odom')
-        assert ros.keeper.publisher.topic_name == ros.topic('steel/wrench')
+        assert ros.keeper.publisher.topic_name == ros.topic('wrench')
         # Let go of ice: a zero wrench, then nothing more however much ice odometry comes.
         assert ros.spin_until(lambda: ice_wrenches[-1].force.z == 0.0)
         released = len(ice_wrenches)
@@ -251,7 +256,7 @@ def test_it_warns_while_no_odometry_comes_naming_the_topic(capfd):
         assert 2 <= log.count(f'no odometry on {topic}') <= 4, log  # throttled, keeps waiting
         # Once odometry has come, a later silence is told differently.
         publisher = ros.client.create_publisher(Odometry, topic, 10)
-        wrenches = ros.collect('titanium/wrench')
+        wrenches = ros.collect('titanium')
         assert publish_until(ros, publisher, odometry(0.0), wrenches)
         capfd.readouterr()
         ros.spin_until(lambda: False, timeout_s=0.6)
@@ -263,7 +268,7 @@ def test_it_warns_while_no_odometry_comes_naming_the_topic(capfd):
 def test_odometry_that_is_not_finite_gets_no_force(capfd):
     with Keeper({'sphere': 'ice'}) as ros:
         publisher = ros.client.create_publisher(Odometry, ros.topic('ice/odom'), 10)
-        wrenches = ros.collect('ice/wrench')
+        wrenches = ros.collect('ice')
         assert publish_until(ros, publisher, odometry(-1.0), wrenches)
         for bad in (odometry(math.nan), odometry(0.0, vz=math.inf),
                     odometry(0.0, position_x=-math.inf), odometry(0.0, orientation_w=math.nan)):

@@ -175,7 +175,7 @@ def test_without_per_sphere_topics_the_graph_and_parameters_do_not_grow_with_sph
                                 ListParameters.Request()).result.names
         assert 'spheres.mass' in names_listed
         assert not any(n.startswith('s1.') for n in names_listed)
-        assert len(names_listed) < 40
+        assert len(names_listed) < 45
         # set_mass by sphere name, ros2 param set of the array: one path, in step.
         result = ros.call(SetParameters, 'set_mass', SetParameters.Request(parameters=[
             ParameterMessage(name='s7', value=value_of(5.0))])).results[0]

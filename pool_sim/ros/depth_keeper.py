@@ -1,7 +1,9 @@
 """depth_keeper: holds one sphere at a depth by publishing forces, as any other node could.
 
-Reads `pool_sim/<sphere>/odom`, publishes `pool_sim/<sphere>/wrench` (names relative to this
-node's namespace, so remap them like any topic). A PD law on the height error, with an
+Reads `pool_sim/<sphere>/odom` and answers each odometry message with a force on
+`pool_sim/wrench` (WrenchStamped: frame_id the sphere, stamp the odometry's), so it works in
+pool_sim's lockstep out of the box (names relative to this node's namespace, so remap them
+like any topic). A PD law on the height error, with an
 optional integral term (ki, default 0) that removes the offset a net weight or buoyancy
 leaves: with PD alone the sphere settles (net force) / kp away from the target. The integral
 term (ki times the integrated error) is kept within max_force, so it cannot wind up.
@@ -15,7 +17,8 @@ import math
 import sys
 import time
 
-from geometry_msgs.msg import Wrench
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 from rclpy.clock import Clock, ClockType
@@ -154,7 +157,9 @@ class DepthKeeper(Node):
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self.odometry_timeout_s = odometry_timeout_s
-        self.publisher = self.subscription = None
+        self.publisher = self.create_publisher(WrenchStamped, 'pool_sim/wrench', 10)
+        self.message = WrenchStamped()
+        self.subscription = None
         self._wire(self.settings['sphere'])
         # Wall time, so it also warns under use_sim_time with no /clock.
         self.create_timer(min(0.5, odometry_timeout_s / 5), self._check_odometry_arrives,
@@ -214,20 +219,20 @@ class DepthKeeper(Node):
             self._wire(self.settings['sphere'])
 
     def _wire(self, sphere):
-        """Subscribe to the sphere's odometry, publish its wrench; let go of the previous one."""
-        if self.publisher is not None:
+        """Subscribe to the sphere's odometry, push it; let go of the previous one."""
+        if self.subscription is not None:
             # Or the old sphere keeps our last force until pool_sim's wrench_timeout (0 = for
-            # ever); given a moment to arrive before the publisher goes.
-            self.publisher.publish(Wrench())
-            self.publisher.wait_for_all_acked(Duration(seconds=0.2))
-            self.destroy_publisher(self.publisher)
+            # ever).
             self.destroy_subscription(self.subscription)
+            self._publish_force(self.wired, 0.0, self.last_stamp_message)
+            self.publisher.wait_for_all_acked(Duration(seconds=0.2))
+        self.wired = sphere
+        self.last_stamp_message = None  # the header stamp of the last odometry answered
         self.integral_force = 0.0  # ki * integral of the error, N
         self.last_stamp = None
         self.heard_since_wired = False
         self.last_heard = time.monotonic()
         self.next_warning = 0.0
-        self.publisher = self.create_publisher(Wrench, f'pool_sim/{sphere}/wrench', 10)
         self.subscription = self.create_subscription(
             Odometry, f'pool_sim/{sphere}/odom', self._on_odometry, 10)
         self.get_logger().info(
@@ -277,9 +282,17 @@ class DepthKeeper(Node):
                 f'{self.subscription.topic_name}: odometry with a value that is not finite; '
                 'no force published for it', throttle_duration_sec=5.0)
             return
-        wrench = Wrench()
-        wrench.force.z = force
-        self.publisher.publish(wrench)
+        self.last_stamp_message = odometry.header.stamp
+        self._publish_force(self.wired, force, odometry.header.stamp)
+
+    def _publish_force(self, sphere, force_z, stamp):
+        """A vertical force on `sphere`, stamped with the instant it answers (None: time 0,
+        for the zero force that lets go of a sphere)."""
+        message = self.message  # one message refilled: building one costs more than the law
+        message.header.frame_id = sphere
+        message.header.stamp = stamp if stamp is not None else Time()
+        message.wrench.force.z = force_z
+        self.publisher.publish(message)
 
 
 def main(args=None):

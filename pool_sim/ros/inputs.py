@@ -8,6 +8,10 @@ Callbacks run on the executor's thread and only record the message (the latest p
 the latest array); the clock thread applies them, in the order they came, at the start of
 its next tick. Every input is checked alike (finite, within the force range) and refreshes
 the sphere's wrench timeout alike.
+
+For lockstep each input also records the newest publish instant it answered: a
+WrenchStamped its header's stamp; an unstamped message (Wrench, the ~/forces array) the
+instant published last before it arrived.
 """
 from functools import partial
 import math
@@ -19,6 +23,7 @@ from rclpy.event_handler import SubscriptionEventCallbacks
 from std_msgs.msg import Float64MultiArray
 
 from pool_sim.physics import InvalidInput
+from pool_sim.physics.scene import FORCES_INPUT
 from pool_sim.physics.spheres import check_external_force, FORCE_LIMIT_N, shortened
 
 THROTTLE_S = 1.0
@@ -28,10 +33,17 @@ ALL_SPHERES = object()  # the pending key of a ~/forces array
 class ForceInputs:
     """The input subscriptions of `node` and the forces waiting for the next tick."""
 
-    def __init__(self, node, names, per_sphere_topics):
+    def __init__(self, node, names, per_sphere_topics, on_answer=None):
+        """on_answer: called on the executor's thread after each message (lockstep wakes
+        the clock with it)."""
         self.node = node
         self.lock = threading.Lock()
         self.pending = {}  # sphere name or ALL_SPHERES -> the latest message, arrival order
+        # Input name (a sphere's, or FORCES_INPUT) -> the newest publish instant it answered,
+        # in ns of simulated time; instant_ns: the instant published last (the node sets it).
+        self.answered_ns = {}
+        self.instant_ns = 0
+        self.on_answer = on_answer
         self.torque_warned = set()
         # Per-sphere topics without rclpy's default QoS-event handlers: each would be one
         # more waitable the executor walks on every wake-up.
@@ -58,26 +70,49 @@ class ForceInputs:
         with self.lock:
             for name in names:
                 self.pending.pop(name, None)
+                self.answered_ns.pop(name, None)
             self.pending.pop(ALL_SPHERES, None)  # sized for the old spheres
         for name in names:
             subscription = self.per_sphere.pop(name, None)
             if subscription is not None:
                 self.node.destroy_subscription(subscription)
 
-    def _put(self, key, message):
+    def _put(self, key, message, stamp_ns=None):
+        answering = FORCES_INPUT if key is ALL_SPHERES else key
         with self.lock:
             self.pending.pop(key, None)  # re-inserted last: applied in arrival order
             self.pending[key] = message
+            instant = self.instant_ns if stamp_ns is None else stamp_ns  # unstamped: newest
+            if instant > self.answered_ns.get(answering, -1):
+                self.answered_ns[answering] = instant
+        if self.on_answer is not None:
+            self.on_answer()
 
     def _put_stamped(self, message):
-        self._put(message.header.frame_id, message.wrench)
+        stamp = message.header.stamp
+        self._put(message.header.frame_id, message.wrench,
+                  stamp.sec * 1_000_000_000 + stamp.nanosec)
 
     def _put_forces(self, message):
         self._put(ALL_SPHERES, message)
 
     def clear(self):
+        """Forget what waits and what was answered (a reset: time starts again at 0)."""
         with self.lock:
             self.pending = {}
+            self.answered_ns = {}
+            self.instant_ns = 0
+
+    def unanswered(self, names, instant_ns):
+        """The names of `names` that have not answered the instant instant_ns."""
+        with self.lock:
+            answered = self.answered_ns
+            return [name for name in names if answered.get(name, -1) < instant_ns]
+
+    def answered(self, name) -> int:
+        """The newest instant (ns) input `name` answered; -1 for none."""
+        with self.lock:
+            return self.answered_ns.get(name, -1)
 
     # -- on the clock thread -----------------------------------------------------------------
 

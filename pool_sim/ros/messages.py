@@ -25,8 +25,13 @@ from pool_sim.ros.serialized import PatchedDoubleBlock, PatchedMessage, PatchedM
 LAST_STAMP_S = 2**31 - 1
 
 
+def stamp_nanoseconds(seconds: float) -> int:
+    """Simulated seconds as the nanoseconds of their ROS stamp."""
+    return int(round(seconds * 1e9))
+
+
 def stamp_of(seconds: float) -> Time:
-    nanoseconds = int(round(seconds * 1e9))
+    nanoseconds = stamp_nanoseconds(seconds)
     return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
 
 

@@ -22,16 +22,16 @@ import numpy as np
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, ParameterEvent
 from rclpy.parameter import Parameter
 
-from pool_sim.physics.scene import (check_some_sphere_names, COMPONENTS, GLOBAL_KEYS, Scene,
-                                    SPHERE_KEYS)
+from pool_sim.physics.scene import (check_some_sphere_names, COMPONENTS, GLOBAL_KEYS,
+                                    LOCKSTEP_KEYS, Scene, SPHERE_KEYS)
 from pool_sim.physics.spheres import range_words
 
 # Parameters rclpy itself declares or reads; they are not part of the scene.
 ROS_OWN_PARAMETERS = ('use_sim_time', 'start_type_description_service')
-# What may change while the node runs: these per-sphere keys, and sphere_names (spawn and
-# remove, with the new spheres' keys in the same request).
+# What may change while the node runs: these per-sphere keys, sphere_names (spawn and
+# remove, with the new spheres' keys in the same request), and the lockstep settings.
 LIVE_SPHERE_KEYS = ('mass', 'radius', 'lift_area')
-LIVE_GLOBAL_KEYS = ('sphere_names',)
+LIVE_GLOBAL_KEYS = ('sphere_names',) + LOCKSTEP_KEYS
 ARRAY_PREFIX = 'spheres.'
 
 

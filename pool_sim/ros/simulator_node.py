@@ -12,6 +12,11 @@ walks every subscription of a node each time it wakes (about 16 us each: 16 ms a
 per-sphere wrench topics), so a clock on the executor's timer paid that on every tick; on
 its own thread it pays nothing, and the executor wakes only when something arrives. One
 lock keeps the two apart: a service, a parameter change or a spawn happens between ticks.
+
+With `lockstep` on, the clock steps one publish period at a time, each once the inputs in
+`lockstep_inputs` have answered the instant before (lockstep.py). Without a clock thread
+(run_clock=False, as pool_sim.testing runs it) whoever drives the node calls
+advance_period() itself.
 """
 from functools import partial
 import math
@@ -39,10 +44,13 @@ from pool_sim.physics.spheres import named_few, NAMES_SHOWN, RADIUS_RANGE_M
 from pool_sim.physics.stability import stable_at, stable_step_bound
 from pool_sim.ros.executables import process_age_s, run_node
 from pool_sim.ros.inputs import expired_forces, ForceInputs
-from pool_sim.ros.messages import LAST_STAMP_S, scene_markers, SphereMessages, stamp_of
+from pool_sim.ros.lockstep import Lockstep
+from pool_sim.ros.messages import (LAST_STAMP_S, scene_markers, SphereMessages,
+                                   stamp_nanoseconds, stamp_of)
 from pool_sim.ros.parameters import (ARRAY_PREFIX, array_parameter, as_declared_types,
                                      declare_scene, describe, is_read_only, is_ros_own,
-                                     doubles, LIVE_SPHERE_KEYS, overrides_of, params_files, plain,
+                                     doubles, LIVE_SPHERE_KEYS, LOCKSTEP_KEYS, overrides_of,
+                                     params_files, plain,
                                      retable, scene_from_overrides, sphere_parameters)
 from pool_sim.ros.services import (guard_services, KNOWN_PARAMETER_TYPES, THROTTLE_S,
                                    unknown_type_reason, unknown_type_refusal)
@@ -76,14 +84,17 @@ class PoolSimNode(Node):
 
     lock: held by every tick of the clock thread and by every service and parameter
     change; take it to look at or change the simulation from another thread.
+    run_clock: False makes no clock thread; then time goes on only by advance_period().
     """
 
-    def __init__(self, node_name='pool_sim', default_scene=None, **node_kwargs):
+    def __init__(self, node_name='pool_sim', default_scene=None, run_clock=True,
+                 **node_kwargs):
         # Undeclared names reach our checks (which refuse them) instead of rclpy's
         # exception: a spawn request carries the new spheres' keys, not declared yet.
         super().__init__(node_name, allow_undeclared_parameters=True, **node_kwargs)
         self.lock = threading.RLock()
         self.clock_thread = None
+        self.run_clock = run_clock
         try:
             self._build(default_scene or Scene.default())
         except BaseException:
@@ -119,13 +130,16 @@ class PoolSimNode(Node):
         self.odometry_sender = OdometrySender(self.get_logger())
         self.clock_publisher = (self.create_publisher(ClockMessage, '/clock', 10)
                                 if scene['publish_clock'] else None)
-        self.inputs = ForceInputs(self, names, self.per_sphere)
+        self.lockstep = Lockstep(self.get_logger())
+        self.inputs = ForceInputs(self, names, self.per_sphere, on_answer=self._on_answer)
+        self._configure_lockstep()
         self.create_service(SetParameters, '~/set_mass', partial(self._on_set_sphere, 'mass'),
                             qos_profile=SERVICE_QOS)
         self.create_service(SetParameters, '~/set_radius',
                             partial(self._on_set_sphere, 'radius'), qos_profile=SERVICE_QOS)
         self.create_service(Trigger, '~/reset', self._on_reset, qos_profile=SERVICE_QOS)
         self.create_service(SetBool, '~/pause', self._on_pause, qos_profile=SERVICE_QOS)
+        self.create_service(Trigger, '~/step', self._on_step, qos_profile=SERVICE_QOS)
         self.add_pre_set_parameters_callback(self._complete_parameters)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
@@ -171,17 +185,20 @@ class PoolSimNode(Node):
         self.next_status_wall = self.started_wall + STATUS_PERIOD_S
         self.next_paused_publish = 0.0
         self.clock_stop, self.clock_wake = threading.Event(), threading.Event()
-        self.clock_thread = threading.Thread(target=self._run_clock, name='pool_sim_clock',
-                                             daemon=True)
-        self.clock_thread.start()
+        if self.run_clock:
+            self.clock_thread = threading.Thread(target=self._run_clock,
+                                                 name='pool_sim_clock', daemon=True)
+            self.clock_thread.start()
 
     def _add_odometry(self, names):
         if not self.per_sphere:
             return
         no_default_events = PublisherEventCallbacks(use_default_callbacks=False)
         for name in names:
+            # Transient-local as the other state topics: a controller that starts after
+            # the node still gets the instant lockstep waits for it to answer.
             self.odometry_publishers[name] = self.create_publisher(
-                Odometry, f'~/{name}/odom', 10, event_callbacks=no_default_events)
+                Odometry, f'~/{name}/odom', STATE_QOS, event_callbacks=no_default_events)
 
     def _warn_if_unstable(self, indices=None):
         """Warn when the integrator is unstable at the configured rate for the scene's
@@ -235,7 +252,7 @@ class PoolSimNode(Node):
     # -- time --------------------------------------------------------------------------------
 
     def _reset_timing(self):
-        self.next_publish_time = 0.0
+        self.next_publish_time = self.publish_period  # time 0 is published as it starts
         self.backlog_s = 0.0
         self.last_wall = time.monotonic()
         self.wrench_time = np.full(len(self.scene.sphere_names), -math.inf)
@@ -243,12 +260,17 @@ class PoolSimNode(Node):
     def _on_tick(self):
         now = time.monotonic()
         elapsed, self.last_wall = now - self.last_wall, now
-        self.inputs.apply(self.simulation, self.wrench_time)
         if self.paused:
+            self.inputs.apply(self.simulation, self.wrench_time)
             if now >= self.next_paused_publish:  # for subscribers that joined meanwhile
                 self.next_paused_publish = now + PAUSED_REPUBLISH_S
                 self._publish_state()
             return
+        # Looked at before the inputs are applied: every answer that made it ready is.
+        answered = self.lockstep_ready()
+        self.inputs.apply(self.simulation, self.wrench_time)
+        if not answered:
+            return  # waiting is not falling behind: nothing owed for it
         dt = self.simulation.max_step
         stepped = False
         deadline = now + TICK_BUDGET_S
@@ -259,16 +281,71 @@ class PoolSimNode(Node):
             self.given_up_s += owed - self.backlog_s
             # Bounded by the budget too: a real_time_factor the machine cannot reach leaves
             # the rest owed (then given up at the bound), never a tick that blocks services.
+            # In lockstep a publish ends the tick's steps (then awaited_ns is set).
             while (self.backlog_s >= dt * (1.0 - 1e-9) and time.monotonic() < deadline
-                   and self._step()):
+                   and self.lockstep.awaited_ns is None and self._step()):
                 self.backlog_s -= dt
                 stepped = True
         else:
-            while time.monotonic() < deadline and self._step():
+            while (time.monotonic() < deadline and self.lockstep.awaited_ns is None
+                   and self._step()):
                 stepped = True
-        if stepped and self.clock_publisher is not None:
-            self.clock_publisher.publish(ClockMessage(clock=stamp_of(self.simulation.time)))
+        if stepped:
+            self._publish_clock()
         self._report_recovered()
+
+    def _publish_clock(self):
+        if self.clock_publisher is not None:
+            self.clock_publisher.publish(ClockMessage(clock=stamp_of(self.simulation.time)))
+
+    def advance_period(self) -> bool:
+        """Step to the next publish instant and publish it (with /clock), whether paused or
+        not and without waiting for lockstep answers; inputs that came are applied first.
+        False when simulated time cannot go on (the end of ROS stamps)."""
+        with self.lock:
+            self.inputs.apply(self.simulation, self.wrench_time)
+            publishes = self.publishes
+            while self.publishes == publishes:
+                if not self._step():
+                    return False
+            self._publish_clock()
+            self._report_recovered()
+            return True
+
+    def lockstep_ready(self) -> bool:
+        """True when the instant published last is answered by every lockstep input (or
+        timed out, or lockstep is off): then advance_period() may go on. While it waits,
+        the instant's state goes out again now and then, for controllers that came late."""
+        with self.lock:
+            if self.lockstep.ready(self.inputs):
+                return True
+            if self.lockstep.republish_due():
+                self.republish_state()
+            return False
+
+    def republish_state(self):
+        """Publish the present instant's state again (for subscribers that joined since)."""
+        with self.lock:
+            self.next_listener_check = 0.0  # and to odometry listeners that are new
+            self._publish_state()
+
+    def set_external_force(self, sphere, force):
+        """Push a sphere (N, world axes) as an input message does: checked (InvalidInput if
+        refused), holding until replaced or until wrench_timeout."""
+        with self.lock:
+            index = self.simulation.spheres.lookup(sphere)
+            self.simulation.set_external_force(sphere, force)
+            self.wrench_time[index] = self.simulation.time
+
+    def _on_answer(self):
+        # On the executor's thread: wake the clock at once when it waits for answers.
+        if self.lockstep.awaited_ns is not None and self.clock_thread is not None:
+            self.clock_wake.set()
+
+    def _configure_lockstep(self):
+        scene = self.scene
+        self.lockstep.configure(scene['lockstep'], scene['lockstep_inputs'],
+                                scene['lockstep_timeout'])
 
     def _step(self) -> bool:
         """One physics step (and the publish it is due); False when time cannot go on."""
@@ -303,15 +380,29 @@ class PoolSimNode(Node):
         started = time.perf_counter()
         spheres = self.simulation.spheres
         wanted = self._odometry_listened_to()
+        if self.lockstep.enabled and self.per_sphere:
+            # A controller that has not matched yet gets it too (transient-local).
+            listed = {spheres.index[name] for name in self.lockstep.inputs
+                      if name in spheres.index}
+            wanted = sorted(listed.union(wanted)) if listed else wanted
         self.messages.fill(self.simulation.time, spheres.position, spheres.velocity,
                            spheres.radius, wanted)
         built = time.perf_counter()
+        instant_ns = stamp_nanoseconds(self.simulation.time)
+        with self.inputs.lock:  # before it is out: an unstamped answer to it comes after
+            self.inputs.instant_ns = instant_ns
         self.pose_publisher.publish(self.messages.poses.to_bytes())
         self.marker_publisher.publish(self.messages.markers.to_bytes())
         self.state_publisher.publish(self.messages.states_bytes())
-        if wanted:
-            self.odometry_sender.send([(self.odometry_publishers[spheres.names[i]],
-                                        self.messages.odometry_bytes(i)) for i in wanted])
+        odometry = [(self.odometry_publishers[spheres.names[i]],
+                     self.messages.odometry_bytes(i)) for i in wanted]
+        if odometry and self.lockstep.enabled:
+            # Every instant to every controller, before the wait: none may be left out.
+            for publisher, message in odometry:
+                publisher.publish(message)
+        elif odometry:
+            self.odometry_sender.send(odometry)
+        self.lockstep.published(instant_ns)
         self.time_spent['build'] += built - started
         self.time_spent['publish'] += time.perf_counter() - built
         self.publishes += 1
@@ -367,7 +458,7 @@ class PoolSimNode(Node):
                 f'steps, {self.publishes} publishes ({self.odometry_sender.dropped} odometry '
                 f'sets left out for slow subscribers), {self.given_up_s:.2f} s given up to '
                 f'the catch-up bound, {self.simulation.recoveries} put-backs by the step '
-                f'guard; wall time in {parts}')
+                f'guard{self.lockstep.report()}; wall time in {parts}')
 
     def _set_paused(self, paused: bool):
         now = time.monotonic()
@@ -436,10 +527,15 @@ class PoolSimNode(Node):
                                                       self.simulation.spheres.names))
         values = {p.name: plain(p.value) for p in parameters
                   if not is_ros_own(p.name) and p.name not in self._following_lift_areas}
+        settings = {name: values.pop(name) for name in LOCKSTEP_KEYS if name in values}
         if 'sphere_names' in values and tuple(values['sphere_names'] or ()) != \
                 self.simulation.spheres.names:
-            return self._plan_spheres(values)
-        return {'scene': None, 'live': self._live_changes(values, self.scene)}
+            planned = self._plan_spheres(values, settings)
+        else:
+            planned = {'scene': None, 'live': self._live_changes(values, self.scene)}
+            if settings:  # checked as a scene checks them (against sphere_names too)
+                planned['settings'] = self.scene.with_values(**settings)
+        return planned
 
     def _live_changes(self, values, scene):
         """[(sphere, key, value)] of a request's live keys, each checked; InvalidInput for
@@ -493,10 +589,11 @@ class PoolSimNode(Node):
         return [(spheres.names[i], key, check_live(spheres, pool, spheres.names[i], key,
                                                    float(rows[i]))) for i in changed]
 
-    def _plan_spheres(self, values):
-        """Spawn and remove: the new scene, and the live changes of the spheres kept. The
-        new scene keeps the kept spheres' initial values (reset goes back to them); keys of
-        a kept sphere in the request are live changes, as in any other request."""
+    def _plan_spheres(self, values, settings):
+        """Spawn and remove: the new scene (with the lockstep `settings` of the request),
+        and the live changes of the spheres kept. The new scene keeps the kept spheres'
+        initial values (reset goes back to them); keys of a kept sphere in the request are
+        live changes, as in any other request."""
         names = check_some_sphere_names(values['sphere_names'])
         index = self.simulation.spheres.index
         given, live = {}, {}
@@ -535,7 +632,7 @@ class PoolSimNode(Node):
                                            'cannot change it while running')
                 rows[new_at] = initial
                 given[name] = rows.tolist()
-        scene = self.scene.with_spheres(names, given)
+        scene = self.scene.with_spheres(names, {**given, **settings})
         return {'scene': scene,
                 'live': [self._live_change(name, value) for name, value in live.items()]}
 
@@ -546,6 +643,9 @@ class PoolSimNode(Node):
                 return
             if planned['scene'] is not None:
                 self._change_spheres(planned['scene'])
+            if 'settings' in planned:
+                self.scene = planned['settings']
+            self._configure_lockstep()
             touched = set()
             for sphere, key, value in planned['live']:
                 getattr(self.simulation, f'set_{key}')(sphere, value)
@@ -657,6 +757,7 @@ class PoolSimNode(Node):
     def _on_reset(self, request, response):
         with self.lock:
             self.inputs.clear()  # forces sent before the reset do not outlive it
+            self.lockstep.forget()
             spheres = self.simulation.spheres
             live = {key: getattr(spheres, key).copy() for key in LIVE_SPHERE_KEYS}
             self.simulation.reset()
@@ -678,8 +779,28 @@ class PoolSimNode(Node):
             if changed:
                 retable(self, changed=changed)
             self._publish_state()
-            self.next_publish_time = self.publish_period
         response.success, response.message = True, 'back to the initial scene at time 0'
+        return response
+
+    def _on_step(self, request, response):
+        """While paused: one publish period on, that instant published, then the answer
+        (with the new simulated time). Lockstep answers are not waited for here (they come
+        through the executor that runs this service): it applies what has arrived."""
+        with self.lock:
+            if not self.paused or self.stamp_limit_reached:
+                response.success = False
+                response.message = (
+                    'at the last time a ROS stamp can carry (2^31 s); call ~/reset'
+                    if self.stamp_limit_reached else
+                    'not paused: ~/step advances a paused simulation by one publish period; '
+                    'pause it first (~/pause true)')
+                return response
+            started = self.simulation.time
+            response.success = self.advance_period()
+            response.message = (f'stepped from t={started:.9f} s to '
+                                f't={self.simulation.time:.9f} s' if response.success else
+                                'at the last time a ROS stamp can carry (2^31 s): not '
+                                'stepped; call ~/reset')
         return response
 
     def _on_pause(self, request, response):
