@@ -26,5 +26,7 @@ setup(
             'pool_sim = pool_sim.ros.executables:pool_sim',
             'depth_keeper = pool_sim.ros.executables:depth_keeper',
         ],
+        # pytest finds pool_sim.testing's fixture by itself once pool_sim is installed.
+        'pytest11': ['pool_sim = pool_sim.testing'],
     },
 )

@@ -17,3 +17,7 @@ settings.register_profile('dev', max_examples=40)
 settings.register_profile('ci', max_examples=40, derandomize=True)
 settings.register_profile('deep', max_examples=1000)
 settings.load_profile(os.environ.get('HYPOTHESIS_PROFILE', 'dev'))
+
+# pool_sim.testing's fixture, as an installed pool_sim gives it to a user's pytest (the
+# checkout is not installed: imported here).
+from pool_sim.testing import pool_sim  # noqa: E402,F401

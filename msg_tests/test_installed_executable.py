@@ -108,3 +108,22 @@ def test_installed_node_with_a_bad_params_file_exits_non_zero_naming_the_key(wor
     assert result.returncode != 0
     assert 'buoy.mass: must be within' in result.stdout + result.stderr
     assert 'Traceback' not in result.stdout + result.stderr
+
+
+def readme_example() -> str:
+    """The README's example test of depth_keeper (the python block that starts with
+    `# test_depth_keeper.py`)."""
+    text = (REPO / 'README.md').read_text()
+    start = text.index('```python\n# test_depth_keeper.py') + len('```python\n')
+    return text[start:text.index('```', start)]
+
+
+def test_the_readme_example_runs_with_an_installed_pool_sim(workspace, tmp_path):
+    # A user's own suite, elsewhere: pytest finds the fixture through the installed entry
+    # point (no conftest, nothing of this checkout on the path).
+    (tmp_path / 'test_depth_keeper.py').write_text(readme_example())
+    result = subprocess.run(
+        [sys.executable, '-m', 'pytest', '-q', '-p', 'no:cacheprovider', str(tmp_path)],
+        cwd=tmp_path, env=workspace, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert '1 passed' in result.stdout
