@@ -355,11 +355,14 @@ def test_what_a_signal_leaves_half_built_prints_no_traceback_but_a_live_fault_do
 
 
 def test_ctrl_c_while_spin_builds_its_executor_exits_0_without_a_traceback():
-    # The race, made certain: the signal lands half-way through the executor's __init__.
+    # The race, made certain: the signal lands as the executor is made, once rclpy's C++
+    # part has built it and before it is the executable's.
     script = '\n'.join([
-        'import signal, sys', 'import rclpy.executors', 'from pool_sim.ros import executables',
-        'def interrupted(*args, **kwargs):', '    executables._raise_stop(signal.SIGINT, None)',
-        'rclpy.executors.SignalHandlerGuardCondition = interrupted',
+        'import signal, sys', 'import rclpy.experimental', 'from pool_sim.ros import executables',
+        'make = rclpy.experimental.EventsExecutor',
+        'def interrupted(*args, **kwargs):', '    make(*args, **kwargs)',
+        '    executables._raise_stop(signal.SIGINT, None)',
+        'rclpy.experimental.EventsExecutor = interrupted',
         'from pool_sim.ros.depth_keeper import main',
         "sys.exit(main(['depth_keeper', '--ros-args', '-p', 'sphere:=titanium']))"])
     done = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
