@@ -145,8 +145,11 @@ def main():
         print(lines[-1], flush=True)
     lines += ['', 'Free running, no controller, lockstep off, real_time_factor 0: simulated s '
               'per wall s over 5 s (median of 3)', '', '| checkout | × real time |', '|---|---:|']
-    trees = [('this commit', REPO)] + ([(f'baseline {args.baseline}', args.baseline)]
-                                        if args.baseline else [])
+    trees = [('this commit', REPO)]
+    if args.baseline:
+        base = subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], cwd=args.baseline,
+                              capture_output=True, text=True).stdout.strip()
+        trees.append((f'baseline {base}', args.baseline))
     results = {name: [] for name, _ in trees}
     for _ in range(3):
         for name, tree in trees:  # interleaved: the same machine state for both

@@ -8,7 +8,7 @@ every answer applied at their start; then t + period is published, and so on. An
 twice causes no extra step: a period is stepped once per instant, not once per message.
 
 A controller that subscribes after an instant was published gets it again: while an instant
-waits, its state is sent again after 0.1 s, 0.3 s, 0.7 s, ... of waiting.
+waits, its state is sent again after 0.1 s, 0.3 s, 0.9 s, ... of waiting.
 
 A dead controller never wedges the simulation: an input that has not answered within
 `lockstep_timeout` wall seconds is counted as a miss, logged, and not waited for again until
@@ -24,8 +24,8 @@ import time
 from pool_sim.physics.spheres import named_few
 
 THROTTLE_S = 1.0
-# Wall s an instant waits before its state is sent again (then at twice the wait so far each
-# time): a controller that subscribed after the publish gets it, one that answers in time
+# Wall s an instant waits before its state is sent again (then after three times the wait
+# so far each time): a controller that subscribed after the publish gets it, one that answers in time
 # never sees it twice.
 REPUBLISH_FIRST_S = 0.1
 
@@ -66,7 +66,7 @@ class Lockstep:
         now = time.monotonic()
         if self.awaited_ns is None or now < self.next_republish:
             return False
-        self.next_republish = now + 2.0 * (now - self.awaited_since)  # 0.1, 0.2, 0.4 s, ...
+        self.next_republish = now + 2.0 * (now - self.awaited_since)  # 0.1, 0.3, 0.9 s, ...
         return True
 
     def ready(self, inputs) -> bool:
