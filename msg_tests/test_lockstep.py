@@ -253,3 +253,81 @@ def test_across_processes_and_under_load_the_loop_is_the_in_process_one(pool_sim
     assert count == 601  # t = 0 and 30 instants a simulated second (on the 200 Hz grid)
     assert record_across_processes(params_file)[1:] == (expected, count)
     assert record_across_processes(params_file, hogs=2)[1:] == (expected, count)
+
+
+# Found by review: what is in flight across a reset, copies and unstamped answers, stamps
+# from another clock, odd frame_ids, a spawn request through ~/set_parameters.
+
+def test_a_reset_starts_the_turns_again_whatever_answer_is_in_flight(pool_sim):
+    fresh = pool_sim(KEEPER_SCENE)
+    fresh.add(DepthKeeper)
+    expected = digests(fresh, 2.0)
+    sim = pool_sim(KEEPER_SCENE)
+    sim.add(DepthKeeper)
+    sim.advance(3.0)  # the keeper's answer to t = 3 s is on its way
+    assert sim.call(Trigger, 'reset', Trigger.Request()).success
+    assert digests(sim, 2.0) == expected
+    assert sim.node.lockstep.misses == 0
+
+
+class SlowFirstArrayKeeper(ArrayKeeper):
+    """Takes 0.8 s over its first answer (a controller warming up)."""
+
+    def _on_states(self, message):
+        if not getattr(self, 'warmed', False):
+            self.warmed = True
+            time.sleep(0.8)
+        super()._on_states(message)
+
+
+def test_an_unstamped_controller_is_never_sent_a_copy_it_would_answer_twice(pool_sim):
+    scene = {**KEEPER_SCENE, 'lockstep_inputs': ['forces'], 'per_sphere_topics': False}
+    quick = pool_sim(scene)
+    quick.add(ArrayKeeper)
+    expected = digests(quick, 3.0)
+    slow = pool_sim(scene)
+    slow.add(SlowFirstArrayKeeper)
+    assert digests(slow, 3.0) == expected
+    assert slow.node.publishes == quick.node.publishes  # no copies sent
+
+
+def test_a_stamp_after_the_newest_instant_answers_nothing(pool_sim, capfd):
+    sim = pool_sim({**KEEPER_SCENE, 'lockstep_timeout': 0.2})
+    wall_clock = sim.node.create_publisher(WrenchStamped, 'pool_sim/wrench', 10)
+    message = WrenchStamped()
+    message.header.frame_id = 'ice'
+    message.header.stamp.sec = 1_800_000_000  # as get_clock().now() stamps it
+    for _ in range(3):
+        sim.advance(0.1)
+        wall_clock.publish(message)
+    assert sim.node.lockstep.misses == 1  # never counted: missed once, then not waited for
+    assert 'after the newest instant published' in capfd.readouterr().err
+    assert 'ice' not in sim.node.inputs.answered_ns
+
+
+def test_frame_ids_of_no_input_are_not_recorded(pool_sim):
+    sim = pool_sim({**KEEPER_SCENE, 'lockstep_inputs': ['ice'], 'lockstep_timeout': 0.2})
+    stranger = sim.node.create_publisher(WrenchStamped, 'pool_sim/wrench', 10)
+    for frame in ('zzz', 'forces', '', 'a' * 1000):
+        message = WrenchStamped()
+        message.header.frame_id = frame
+        stranger.publish(message)
+    sim.advance(0.1)
+    assert set(sim.node.inputs.answered_ns) <= {'ice'}
+
+
+def test_a_spawn_request_carries_the_lockstep_keys_through_set_parameters(pool_sim):
+    sim = pool_sim({'lockstep_inputs': ['ice', 'forces']})
+    request = SetParameters.Request(parameters=[
+        Parameter('lockstep_inputs', value=['forces']).to_parameter_msg(),
+        Parameter('sphere_names', value=['cork', 'steel']).to_parameter_msg()])
+    results = sim.call(SetParameters, 'set_parameters', request).results
+    assert [r.successful for r in results] == [True, True], results
+    assert sim.node.simulation.spheres.names == ('cork', 'steel')
+    assert sim.node.lockstep.inputs == ('forces',)
+
+
+def test_advance_refuses_a_node_with_its_own_clock(pool_sim):
+    sim = pool_sim(run_clock=True)
+    with pytest.raises(RuntimeError, match='clock thread'):
+        sim.advance(1.0)

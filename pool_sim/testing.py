@@ -59,6 +59,7 @@ class PoolSim:
         self.namespace = f'/pool_sim_test{next(_namespaces)}'
         self.context = self.executor = self.node = None
         self.nodes = []
+        self._joined = False
 
     # -- life --------------------------------------------------------------------------------
 
@@ -93,16 +94,17 @@ class PoolSim:
         import rclpy
         if self.context is None:
             return
-        try:
-            if self.executor is not None:
-                self.executor.shutdown()
-            for node in reversed(self.nodes):
-                node.destroy_node()
-        finally:
-            self.nodes = []
-            if self.context.ok():
-                rclpy.shutdown(context=self.context)
-            self.context = None
+        errors = []
+        for step in [self.executor.shutdown] if self.executor is not None else []:
+            step_or_error(step, errors)
+        for node in reversed(self.nodes):  # each one, whatever another raised
+            step_or_error(node.destroy_node, errors)
+        self.nodes = []
+        if self.context.ok():
+            step_or_error(lambda: rclpy.shutdown(context=self.context), errors)
+        self.context = None
+        if errors:
+            raise errors[0]
 
     def __enter__(self):
         return self.start()
@@ -122,7 +124,7 @@ class PoolSim:
         self.nodes.append(node)
         self.executor.add_node(node)
         if self.node is not None and node is not self.node:
-            self.node.republish_state()  # the instant it has to answer first
+            self._joined = True  # the instant out is sent again before the next advance
         if answers:
             listed = list(self.node.scene['lockstep_inputs'])
             listed += [name for name in answers if name not in listed]
@@ -146,6 +148,9 @@ class PoolSim:
         last instant is published: your nodes get it as the executor next runs (the next
         advance, or spin)."""
         node = self.node
+        if node.clock_thread is not None:
+            raise RuntimeError('advance() drives a node without a clock thread '
+                               '(run_clock=False); this one runs its own')
         with node.lock:
             target = node.simulation.time + seconds
             half_step = 0.5 * node.simulation.max_step
@@ -158,6 +163,9 @@ class PoolSim:
     def spin_until_answered(self):
         """Run callbacks until the instant published last is answered (or timed out)."""
         node = self.node
+        if self._joined:  # nodes added since it was published: once, to them all at once
+            self._joined = False
+            node.republish_state()
         self.executor.spin_once(timeout_sec=0.0)  # what was just published, to every node
         while not node.lockstep_ready():
             self.executor.spin_once(timeout_sec=min(node.lockstep.wall_left(), 0.1))
@@ -221,6 +229,14 @@ class PoolSim:
             self.node.destroy_client(client)
 
 
+def step_or_error(step, errors):
+    """Run a clean-up step; an exception goes to errors (to be raised once all ran)."""
+    try:
+        step()
+    except Exception as error:  # every step runs; the first error is raised after
+        errors.append(error)
+
+
 def make_executor(kind, context):
     if kind == 'events':
         from rclpy.experimental import EventsExecutor
@@ -243,5 +259,8 @@ def pool_sim():
         return sim.start()
 
     yield start
+    errors = []
     for sim in reversed(started):
-        sim.close()
+        step_or_error(sim.close, errors)
+    if errors:
+        raise errors[0]

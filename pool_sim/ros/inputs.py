@@ -10,8 +10,11 @@ its next tick. Every input is checked alike (finite, within the force range) and
 the sphere's wrench timeout alike.
 
 For lockstep each input also records the newest publish instant it answered: a
-WrenchStamped its header's stamp; an unstamped message (Wrench, the ~/forces array) the
-instant published last before it arrived.
+WrenchStamped its header's stamp, when that is no later than the instant published last (a
+later stamp answers nothing: a wall-clock stamp, or an answer from before a reset, in
+flight); an unstamped message (Wrench, the ~/forces array) the instant published last
+before it arrived. Only the inputs lockstep can wait for (the spheres, and ~/forces) are
+recorded, whatever frame_ids a client sends.
 """
 from functools import partial
 import math
@@ -44,6 +47,8 @@ class ForceInputs:
         self.answered_ns = {}
         self.instant_ns = 0
         self.on_answer = on_answer
+        self.spheres = set()  # the sphere names whose answers are recorded
+        self.unstamped = {FORCES_INPUT}  # inputs whose last answer came unstamped
         self.torque_warned = set()
         # Per-sphere topics without rclpy's default QoS-event handlers: each would be one
         # more waitable the executor walks on every wake-up.
@@ -59,6 +64,8 @@ class ForceInputs:
     # -- subscriptions -----------------------------------------------------------------------
 
     def add_spheres(self, names):
+        with self.lock:
+            self.spheres.update(names)
         if not self.per_sphere_topics:
             return
         for name in names:
@@ -71,6 +78,8 @@ class ForceInputs:
             for name in names:
                 self.pending.pop(name, None)
                 self.answered_ns.pop(name, None)
+                self.spheres.discard(name)
+                self.unstamped.discard(name)
             self.pending.pop(ALL_SPHERES, None)  # sized for the old spheres
         for name in names:
             subscription = self.per_sphere.pop(name, None)
@@ -80,11 +89,23 @@ class ForceInputs:
     def _put(self, key, message, stamp_ns=None):
         answering = FORCES_INPUT if key is ALL_SPHERES else key
         with self.lock:
+            known = key is ALL_SPHERES or key in self.spheres
             self.pending.pop(key, None)  # re-inserted last: applied in arrival order
             self.pending[key] = message
-            instant = self.instant_ns if stamp_ns is None else stamp_ns  # unstamped: newest
-            if instant > self.answered_ns.get(answering, -1):
-                self.answered_ns[answering] = instant
+            future = stamp_ns is not None and stamp_ns > self.instant_ns
+            if known and not future:
+                if stamp_ns is None:
+                    self.unstamped.add(answering)
+                else:
+                    self.unstamped.discard(answering)
+                instant = self.instant_ns if stamp_ns is None else stamp_ns
+                if instant > self.answered_ns.get(answering, -1):
+                    self.answered_ns[answering] = instant
+        if future and known:
+            self._warn(f'wrench for {answering}: stamped {stamp_ns * 1e-9:.9f} s, after the '
+                       f'newest instant published ({self.instant_ns * 1e-9:.9f} s): no '
+                       'answer to any instant (stamp an answer with the stamp of the state '
+                       'it answers); its force applies')
         if self.on_answer is not None:
             self.on_answer()
 
@@ -102,6 +123,11 @@ class ForceInputs:
             self.pending = {}
             self.answered_ns = {}
             self.instant_ns = 0
+
+    def any_unstamped(self, names) -> bool:
+        """True when one of `names` answers unstamped (~/forces, or its last answer)."""
+        with self.lock:
+            return not self.unstamped.isdisjoint(names)
 
     def unanswered(self, names, instant_ns):
         """The names of `names` that have not answered the instant instant_ns."""

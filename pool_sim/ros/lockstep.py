@@ -8,7 +8,9 @@ every answer applied at their start; then t + period is published, and so on. An
 twice causes no extra step: a period is stepped once per instant, not once per message.
 
 A controller that subscribes after an instant was published gets it again: while an instant
-waits, its state is sent again after 0.1 s, 0.3 s, 0.9 s, ... of waiting.
+waits for stamped inputs only, its state is sent again after 0.5 s, 1.5 s, 4.5 s, ... of
+waiting (a stamped answer to a copy is the same answer; an unstamped one would answer the
+next instant, so inputs that answer unstamped are never sent copies).
 
 A dead controller never wedges the simulation: an input that has not answered within
 `lockstep_timeout` wall seconds is counted as a miss, logged, and not waited for again until
@@ -25,9 +27,9 @@ from pool_sim.physics.spheres import named_few
 
 THROTTLE_S = 1.0
 # Wall s an instant waits before its state is sent again (then after three times the wait
-# so far each time): a controller that subscribed after the publish gets it, one that answers in time
-# never sees it twice.
-REPUBLISH_FIRST_S = 0.1
+# so far each time): a controller that subscribed after the publish gets it. Never while an
+# unstamped input is waited for: a copy it answers again would answer the next instant.
+REPUBLISH_FIRST_S = 0.5
 
 
 class Lockstep:
@@ -42,6 +44,7 @@ class Lockstep:
         self.next_republish = 0.0
         self.absent = {}  # input -> the instant it had answered when it missed one
         self.misses = 0  # instants that went on without an input's answer
+        self.waiting = []  # the inputs the awaited instant waited for when last looked at
 
     def configure(self, enabled: bool, inputs, timeout_s: float):
         self.enabled, self.inputs, self.timeout_s = enabled, tuple(inputs), timeout_s
@@ -50,8 +53,15 @@ class Lockstep:
             self.awaited_ns = None
 
     def forget(self):
-        """After a reset: every input is waited for again."""
+        """After a reset: every input is waited for again, time 0 (published next) anew."""
         self.absent = {}
+        self.awaited_ns = None
+
+    def restart_wait(self):
+        """After a pause: the awaited instant's timeout counts from now."""
+        if self.awaited_ns is not None:
+            self.awaited_since = time.monotonic()
+            self.next_republish = self.awaited_since + REPUBLISH_FIRST_S
 
     def published(self, instant_ns: int):
         """The state of instant_ns is out (again, when it is the one awaited)."""
@@ -66,7 +76,7 @@ class Lockstep:
         now = time.monotonic()
         if self.awaited_ns is None or now < self.next_republish:
             return False
-        self.next_republish = now + 2.0 * (now - self.awaited_since)  # 0.1, 0.3, 0.9 s, ...
+        self.next_republish = now + 2.0 * (now - self.awaited_since)  # 0.5, 1.5, 4.5 s, ...
         return True
 
     def ready(self, inputs) -> bool:
@@ -79,6 +89,7 @@ class Lockstep:
                 del self.absent[name]  # it answers again: waited for from now on
         waiting = [name for name in inputs.unanswered(self.inputs, self.awaited_ns)
                    if name not in self.absent]
+        self.waiting = waiting
         if waiting and time.monotonic() - self.awaited_since < self.timeout_s:
             return False
         if waiting:

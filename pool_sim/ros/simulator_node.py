@@ -320,7 +320,8 @@ class PoolSimNode(Node):
         with self.lock:
             if self.lockstep.ready(self.inputs):
                 return True
-            if self.lockstep.republish_due():
+            if (self.lockstep.republish_due()
+                    and not self.inputs.any_unstamped(self.lockstep.waiting)):
                 self.republish_state()
             return False
 
@@ -348,12 +349,16 @@ class PoolSimNode(Node):
         # As fast as possible: the answer that completes the instant runs the next period
         # right here, sparing the hand-over to the clock thread (half a millisecond of a
         # period's two). Bounded as every tick is (TICK_BUDGET_S); the clock thread still
-        # keeps the timeouts.
+        # keeps the timeouts. A fault is said and the input goes on, as on the clock.
         with self.lock:
             if threading.get_ident() not in self._one_thread:
                 fused.use_threads(1)  # per calling thread, as on the clock thread
                 self._one_thread.add(threading.get_ident())
-            self._on_tick()
+            try:
+                self._on_tick()
+            except Exception as error:
+                self.get_logger().error(f'a tick raised {type(error).__name__}: {error}',
+                                        throttle_duration_sec=THROTTLE_S)
 
     def _configure_lockstep(self):
         scene = self.scene
@@ -482,6 +487,7 @@ class PoolSimNode(Node):
             self.paused_wall_s += now - self.paused_since
             self.paused_since = None
             self.last_wall = now  # paused time is not owed
+            self.lockstep.restart_wait()  # nor does it count against lockstep_timeout
         self.paused = paused
 
     # -- parameters: one path for ros2 param set, set_mass, set_radius, spawn and remove -----
@@ -714,7 +720,8 @@ class PoolSimNode(Node):
                 return set_each(request, response)
             new = set(names[-1].value.string_array_value) - set(self.simulation.spheres.names)
             together = [i for i, e in enumerate(entries) if e.name == 'sphere_names'
-                        or e.name.rpartition('.')[0] in new or e.name.startswith(ARRAY_PREFIX)]
+                        or e.name.rpartition('.')[0] in new or e.name.startswith(ARRAY_PREFIX)
+                        or e.name in LOCKSTEP_KEYS]  # they name the spheres
             outcome = unknown_type_refusal([entries[i] for i in together],
                                            'nothing of the spawn')
             if outcome is None:
