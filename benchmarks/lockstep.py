@@ -2,7 +2,7 @@
 for 20 simulated seconds, with lockstep and without.
 
     .venv/bin/python -m benchmarks.lockstep [--runs 10] [--process-runs 3]
-        [--baseline DIR] [--out results/node/lockstep.md]
+        [--baseline DIR] [--free-runs 7] [--out results/node/lockstep.md]
 
 Rows:
 - in-process, lockstep (pool_sim.testing, EventsExecutor / SingleThreadedExecutor): wall
@@ -70,7 +70,7 @@ def in_process(executor):
 
 def with_recorder(params_file):
     with PoolSim(params_file=params_file) as sim:
-        digest, _ = record_in_process(sim)
+        digest, _, _ = record_in_process(sim)
         return digest, sim.state('ice')[0][2]
 
 
@@ -101,6 +101,7 @@ def main():
     parser.add_argument('--runs', type=int, default=10)
     parser.add_argument('--process-runs', type=int, default=3)
     parser.add_argument('--baseline', type=Path, default=None)
+    parser.add_argument('--free-runs', type=int, default=7)
     parser.add_argument('--out', type=Path, default=REPO / 'results/node/lockstep.md')
     args = parser.parse_args()
     commit = subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], cwd=REPO,
@@ -144,14 +145,14 @@ def main():
                      f'{len(Counter(z for _, z, _ in runs))} |')
         print(lines[-1], flush=True)
     lines += ['', 'Free running, no controller, lockstep off, real_time_factor 0: simulated s '
-              'per wall s over 5 s (median of 3)', '', '| checkout | × real time |', '|---|---:|']
+              f'per wall s over 5 s (median of {args.free_runs}, interleaved)', '', '| checkout | × real time |', '|---|---:|']
     trees = [('this commit', REPO)]
     if args.baseline:
         base = subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], cwd=args.baseline,
                               capture_output=True, text=True).stdout.strip()
         trees.append((f'baseline {base}', args.baseline))
     results = {name: [] for name, _ in trees}
-    for _ in range(3):
+    for _ in range(args.free_runs):
         for name, tree in trees:  # interleaved: the same machine state for both
             results[name].append(free_running(tree))
     for name, values in results.items():

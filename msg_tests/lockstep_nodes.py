@@ -1,5 +1,6 @@
 """Controllers for the lockstep tests and benchmark (nodes a user could write), and the
 loop they run in-process and across processes."""
+from collections import defaultdict, deque
 import hashlib
 import os
 from pathlib import Path
@@ -41,8 +42,9 @@ class Recorder(Node):
         self.answers = answers
         self.instants = []  # (stamp ns, bytes of ~/states' data), one per instant
         # The two topics may arrive in either order; a states message belongs to the
-        # PoseArray with its positions (bytes of the (n, 3) positions -> stamp or states).
-        self.stamp_of, self.states_of = {}, {}
+        # PoseArray with its positions (bytes of the (n, 3) positions -> stamps or states
+        # waiting, in arrival order: settled spheres repeat their positions exactly).
+        self.stamp_of, self.states_of = defaultdict(deque), defaultdict(deque)
         self.create_subscription(PoseArray, 'pool_sim/poses', self._on_poses, 10)
         self.create_subscription(Float64MultiArray, 'pool_sim/states', self._on_states, 10)
         self.publisher = self.create_publisher(WrenchStamped, 'pool_sim/wrench', 10)
@@ -51,19 +53,19 @@ class Recorder(Node):
         stamp = message.header.stamp
         key = np.array([(p.position.x, p.position.y, p.position.z) for p in message.poses],
                        dtype=float).tobytes()
-        self.stamp_of[key] = stamp.sec * 1_000_000_000 + stamp.nanosec
+        self.stamp_of[key].append(stamp.sec * 1_000_000_000 + stamp.nanosec)
         self._answer(key)
 
     def _on_states(self, message):
         states = np.array(message.data, dtype=float).reshape(-1, 6)
         key = np.ascontiguousarray(states[:, :3]).tobytes()
-        self.states_of[key] = states.tobytes()
+        self.states_of[key].append(states.tobytes())
         self._answer(key)
 
     def _answer(self, key):
-        if key not in self.stamp_of or key not in self.states_of:
+        if not self.stamp_of[key] or not self.states_of[key]:
             return
-        stamp_ns, states = self.stamp_of.pop(key), self.states_of.pop(key)
+        stamp_ns, states = self.stamp_of[key].popleft(), self.states_of[key].popleft()
         if not self.instants or self.instants[-1][0] < stamp_ns:  # not one sent again
             self.instants.append((stamp_ns, states))
         answer = WrenchStamped()
@@ -97,18 +99,27 @@ class ArrayKeeper(Node):
         self.publisher.publish(Float64MultiArray(data=forces.ravel().tolist()))
 
 
+def first_difference(instants, others) -> str:
+    """Where two recordings part: for a failing comparison's message."""
+    for k, (one, other) in enumerate(zip(instants, others)):
+        if one != other:
+            return f'instant {k}: t = {one[0]} ns against {other[0]} ns, states differ'
+    return f'{len(instants)} instants against {len(others)}'
+
+
 def record_in_process(sim, until_ns=UNTIL_NS):
-    """(digest, instant count) up to until_ns of the loop in a started PoolSim: a Recorder
-    and a DepthKeeper beside the node."""
+    """(digest, instant count, instants) up to until_ns of the loop in a started PoolSim: a
+    Recorder and a DepthKeeper beside the node."""
     recorder = sim.add(Recorder)
     sim.add(DepthKeeper)
     sim.advance(until_ns * 1e-9)
     assert sim.spin(lambda: recorder.instants[-1][0] >= until_ns, 5.0)
-    return recorder.digest(until_ns), len(recorder.instants)
+    instants = [i for i in recorder.instants if i[0] <= until_ns]
+    return recorder.digest(until_ns), len(instants), instants
 
 
 def record_across_processes(params_file, hogs=0, until_ns=UNTIL_NS):
-    """(wall s from t = 0 to until_ns, digest, instant count) of the loop as users start
+    """(wall s from t = 0 to until_ns, digest, instant count, instants) of the loop as users start
     it: `python -m pool_sim` with params_file, `python -m pool_sim.ros.depth_keeper`, and a
     Recorder in this process; `hogs` busy processes beside them."""
     env = {**os.environ, 'PYTHONPATH': str(REPO)}
@@ -136,8 +147,8 @@ def record_across_processes(params_file, hogs=0, until_ns=UNTIL_NS):
             recorder.destroy_node()
         finally:
             rclpy.shutdown(context=context)
-        return wall, recorder.digest(until_ns), len([i for i in recorder.instants
-                                                     if i[0] <= until_ns])
+        instants = [i for i in recorder.instants if i[0] <= until_ns]
+        return wall, recorder.digest(until_ns), len(instants), instants
     finally:
         for process in (keeper, node, *busy):
             process.terminate()

@@ -49,6 +49,7 @@ class ForceInputs:
         self.on_answer = on_answer
         self.spheres = set()  # the sphere names whose answers are recorded
         self.unstamped = {FORCES_INPUT}  # inputs whose last answer came unstamped
+        self.warn_future = False  # in lockstep: say when a stamp answers nothing
         self.torque_warned = set()
         # Per-sphere topics without rclpy's default QoS-event handlers: each would be one
         # more waitable the executor walks on every wake-up.
@@ -101,7 +102,7 @@ class ForceInputs:
                 instant = self.instant_ns if stamp_ns is None else stamp_ns
                 if instant > self.answered_ns.get(answering, -1):
                     self.answered_ns[answering] = instant
-        if future and known:
+        if future and known and self.warn_future:
             self._warn(f'wrench for {answering}: stamped {stamp_ns * 1e-9:.9f} s, after the '
                        f'newest instant published ({self.instant_ns * 1e-9:.9f} s): no '
                        'answer to any instant (stamp an answer with the stamp of the state '

@@ -273,7 +273,7 @@ class PoolSimNode(Node):
         if not answered:
             return  # waiting is not falling behind: nothing owed for it
         dt = self.simulation.max_step
-        stepped = False
+        steps_before = self.steps_taken
         deadline = now + TICK_BUDGET_S
         if self.real_time_factor > 0:
             limit = max(2.0 * dt, MAX_BACKLOG_WALL_S * self.real_time_factor)
@@ -282,16 +282,15 @@ class PoolSimNode(Node):
             self.given_up_s += owed - self.backlog_s
             # Bounded by the budget too: a real_time_factor the machine cannot reach leaves
             # the rest owed (then given up at the bound), never a tick that blocks services.
-            # In lockstep a publish ends the tick's steps (then awaited_ns is set).
-            while (self.backlog_s >= dt * (1.0 - 1e-9) and time.monotonic() < deadline
-                   and self.lockstep.awaited_ns is None and self._step()):
+            # In lockstep a publish ends the tick's steps (_step is False then).
+            while self.backlog_s >= dt * (1.0 - 1e-9) and time.monotonic() < deadline:
                 self.backlog_s -= dt
-                stepped = True
+                if not self._step():
+                    break
         else:
-            while (time.monotonic() < deadline and self.lockstep.awaited_ns is None
-                   and self._step()):
-                stepped = True
-        if stepped:
+            while time.monotonic() < deadline and self._step():
+                pass
+        if self.steps_taken > steps_before:
             self._publish_clock()
         self._report_recovered()
 
@@ -307,8 +306,8 @@ class PoolSimNode(Node):
             self.inputs.apply(self.simulation, self.wrench_time)
             publishes = self.publishes
             while self.publishes == publishes:
-                if not self._step():
-                    return False
+                if not self._step() and self.publishes == publishes:
+                    return False  # the end of ROS stamps
             self._publish_clock()
             self._report_recovered()
             return True
@@ -364,9 +363,11 @@ class PoolSimNode(Node):
         scene = self.scene
         self.lockstep.configure(scene['lockstep'], scene['lockstep_inputs'],
                                 scene['lockstep_timeout'])
+        self.inputs.warn_future = scene['lockstep']
 
     def _step(self) -> bool:
-        """One physics step (and the publish it is due); False when time cannot go on."""
+        """One physics step (and the publish it is due); False when time cannot go on, or
+        when it published an instant lockstep now waits on."""
         sim = self.simulation
         if sim.time + sim.max_step > LAST_STAMP_S:
             # builtin_interfaces/Time counts seconds in an int32: 68 years of simulated time.
@@ -387,6 +388,7 @@ class PoolSimNode(Node):
             self.next_publish_time += self.publish_period
             if self.next_publish_time <= sim.time:
                 self.next_publish_time = sim.time + self.publish_period
+            return self.lockstep.awaited_ns is None
         return True
 
     def _publish_scene_markers(self):
@@ -412,15 +414,17 @@ class PoolSimNode(Node):
         self.pose_publisher.publish(self.messages.poses.to_bytes())
         self.marker_publisher.publish(self.messages.markers.to_bytes())
         self.state_publisher.publish(self.messages.states_bytes())
-        odometry = [(self.odometry_publishers[spheres.names[i]],
-                     self.messages.odometry_bytes(i)) for i in wanted]
-        if odometry and self.lockstep.enabled:
-            # Every instant to every controller, before the wait: none may be left out.
-            for publisher, message in odometry:
-                publisher.publish(message)
-        elif odometry:
-            self.odometry_sender.send(odometry)
-        self.lockstep.published(instant_ns)
+        if wanted:
+            odometry = [(self.odometry_publishers[spheres.names[i]],
+                         self.messages.odometry_bytes(i)) for i in wanted]
+            if self.lockstep.enabled:
+                # Every instant to every controller, before the wait: none may be left out.
+                for publisher, message in odometry:
+                    publisher.publish(message)
+            else:
+                self.odometry_sender.send(odometry)
+        if self.lockstep.enabled:
+            self.lockstep.published(instant_ns)
         self.time_spent['build'] += built - started
         self.time_spent['publish'] += time.perf_counter() - built
         self.publishes += 1
