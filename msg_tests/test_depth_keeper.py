@@ -401,3 +401,26 @@ def test_the_executable_exits_1_naming_a_bad_parameter_without_a_traceback():
         assert 'Traceback' not in output, output
         [line] = output.strip().splitlines()
         assert 'refusing to start: ' + cases[arg] in line, output
+
+
+def test_a_clean_up_that_hangs_still_ends_the_process():
+    # As a DDS participant waiting for ever on a listener did once: the process ends anyway,
+    # from faulthandler's thread, after CLEANUP_LIMIT_S (here 1 s), with exit code 1.
+    script = '\n'.join([
+        'import sys, time', 'from pool_sim.ros import executables',
+        'executables.CLEANUP_LIMIT_S = 1.0',
+        'from pool_sim.ros import depth_keeper',
+        'depth_keeper.DepthKeeper.destroy_node = lambda self: time.sleep(1000)',
+        "sys.exit(depth_keeper.main(['depth_keeper', '--ros-args', '-p', 'sphere:=titanium']))"])
+    process = subprocess.Popen([sys.executable, '-c', script], stderr=subprocess.PIPE,
+                               text=True, env=dict(os.environ, PYTHONPATH=str(REPO)))
+    try:
+        assert 'holding titanium' in process.stderr.readline()  # logged in __init__
+        time.sleep(1.0)  # spinning by now
+        process.send_signal(signal.SIGTERM)
+        started = time.monotonic()
+        process.wait(timeout=20)
+        assert time.monotonic() - started < 10.0
+        assert process.returncode == 1
+    finally:
+        process.kill()

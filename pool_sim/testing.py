@@ -95,8 +95,12 @@ class PoolSim:
         if self.context is None:
             return
         errors = []
-        for step in [self.executor.shutdown] if self.executor is not None else []:
-            step_or_error(step, errors)
+        if self.executor is not None:
+            # Nodes off the executor first: EventsExecutor's callbacks must not be called
+            # from DDS's threads while a node goes.
+            for node in reversed(self.nodes):
+                step_or_error(lambda node=node: self.executor.remove_node(node), errors)
+            step_or_error(self.executor.shutdown, errors)
         for node in reversed(self.nodes):  # each one, whatever another raised
             step_or_error(node.destroy_node, errors)
         self.nodes = []

@@ -6,6 +6,7 @@ This module imports nothing heavy. It takes SIGINT and SIGTERM before the node's
 wherever it is (importing, building the node, spinning), and run_node cleans up. From the
 clean-up on, a further signal ends the process at once.
 """
+import faulthandler
 import gc
 import importlib
 import os
@@ -16,6 +17,11 @@ import time
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _stopping = False
 _exit_code = 0  # what a signal during clean-up ends the process with: 1 after a refusal
+
+
+# Wall seconds the clean-up after a stop may take before the process ends regardless.
+CLEANUP_LIMIT_S = 10.0
+_devnull = None
 
 
 class Stop(BaseException):
@@ -115,7 +121,6 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
     import rclpy
     from rclpy.exceptions import ParameterException
     from rclpy.executors import ExternalShutdownException
-    from rclpy.experimental import EventsExecutor
     from rclpy.signals import SignalHandlerOptions
 
     take_signals()  # already taken when started through pool_sim() or depth_keeper()
@@ -142,6 +147,7 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
         # rclpy's EventsExecutor (C++): the Python one rebuilds its wait set on every
         # wake-up, half a millisecond at the node's ~20 entities, which made a lockstep loop
         # across processes run at 9x real time instead of 25x.
+        from rclpy.experimental import EventsExecutor  # in here: a signal during it is a stop
         executor = EventsExecutor(context=node.context)
         executor.add_node(node)
         # As rclpy.spin, but looking at _stopping too: a Stop that lands in a __del__ or a
@@ -160,12 +166,28 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
             raise  # a fault, shown in full; once stopping, a consequence of the stop
     finally:
         exit_on_signal()
+        # A clean-up that does not end in CLEANUP_LIMIT_S (a DDS participant that waits for
+        # a listener for ever) ends the process from faulthandler's own thread, which needs
+        # no interpreter lock: exit code 1, never a process left spinning.
+        faulthandler.dump_traceback_later(CLEANUP_LIMIT_S, exit=True, file=_quiet_stream())
         if executor is not None:
+            if node is not None:
+                # The C++ executor's callbacks off the node first: a DDS listener thread
+                # calling one while the node is destroyed held the destroy up for ever.
+                executor.remove_node(node)
             executor.shutdown()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+        faulthandler.cancel_dump_traceback_later()
     return code
+
+
+def _quiet_stream():
+    global _devnull
+    if _devnull is None:
+        _devnull = open(os.devnull, 'w')
+    return _devnull
 
 
 def _run(module_name):
