@@ -28,8 +28,7 @@ from std_msgs.msg import Float64MultiArray
 from pool_sim.physics import InvalidInput
 from pool_sim.physics.scene import FORCES_INPUT
 from pool_sim.physics.spheres import check_external_force, FORCE_LIMIT_N, shortened
-
-THROTTLE_S = 1.0
+from pool_sim.ros.services import THROTTLE_S
 ALL_SPHERES = object()  # the pending key of a ~/forces array
 
 

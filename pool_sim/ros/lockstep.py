@@ -1,9 +1,9 @@
 """Lockstep: after each publish instant, the physics waits for the inputs that must answer it.
 
 The protocol. The node publishes the state of instant t (every state topic, /clock when
-asked for). Each input listed in `lockstep_inputs` answers t with a message stamped at or
-after t (unstamped messages answer the instant published last before they arrived, see
-inputs.py). Once every listed input has answered, the next publish period's steps run, with
+asked for). Each input listed in `lockstep_inputs` answers t with a message stamped t (a
+stamp later than the newest instant answers nothing; unstamped messages answer the instant
+published last before they arrived, see inputs.py). Once every listed input has answered, the next publish period's steps run, with
 every answer applied at their start; then t + period is published, and so on. Answering
 twice causes no extra step: a period is stepped once per instant, not once per message.
 
@@ -24,8 +24,7 @@ instant before, whatever the machine's speed or load.
 import time
 
 from pool_sim.physics.spheres import named_few
-
-THROTTLE_S = 1.0
+from pool_sim.ros.services import THROTTLE_S
 # Wall s an instant waits before its state is sent again (then after three times the wait
 # so far each time): a controller that subscribed after the publish gets it. Never while an
 # unstamped input is waited for: a copy it answers again would answer the next instant.
