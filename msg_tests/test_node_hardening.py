@@ -154,12 +154,16 @@ def test_many_simultaneous_requests_are_all_answered():
                 (SetParameters, 'set_mass', set_request(('cork', 9.0))),
                 (SetParameters, 'set_radius', set_request(('ice', 0.16))),
                 (Trigger, 'reset', Trigger.Request()),
-                (SetBool, 'pause', SetBool.Request(data=False))):
+                (SetBool, 'pause', SetBool.Request(data=False)),
+                (SetBool, 'pause', SetBool.Request(data=True)),
+                (Trigger, 'step', Trigger.Request())):
             client = ros.client.create_client(service_type, ros.topic(name))
             assert client.wait_for_service(timeout_sec=5.0)
             calls += [client.call_async(request) for _ in range(60)]
         assert ros.spin_until(lambda: all(call.done() for call in calls), timeout_s=30.0)
-        assert sum(call.done() for call in calls) == 240
+        assert sum(call.done() for call in calls) == 360
+        # Each step answered: stepped while paused, or refused while running, with a reason.
+        assert all(call.result().message for call in calls[-60:])
 
 
 @pytest.mark.parametrize('params', [
