@@ -5,16 +5,13 @@
 Writes accuracy.csv, accuracy.md (the tables) and accuracy.png (work-precision diagram:
 max position error against cost per simulated second, log-log, one line per integrator).
 Error: the largest distance from the reference over samples every 0.1 s of the horizon.
-Cost: ns per sphere-step, median of 31 turns of 20 steps (the integrators of a case take
-turns: common.seconds_per_step_in_turns), measured with COST_SPHERES copies of the
-case's spheres so that per-call overhead does not dominate. Every integrator is timed on the
-numpy pipeline, so methods compare like for like; the default's fused kernel (what a user
-gets) is timed too and reported beside it. Errors are the same on both (a test holds them
-to agreement).
+Cost: ns per sphere-step of the compiled step as users run it (one thread, many steps a
+call), with the case's spheres copied to 3 (the size of the default pool: median of 15 turns
+of 2 000 steps) and to 10 000 (median of 31 turns of 20 steps); the integrators of a case
+take turns (common.seconds_per_step_in_turns).
 """
 import argparse
 import csv
-import math
 import os
 from pathlib import Path
 import platform
@@ -24,12 +21,13 @@ import numpy as np
 from benchmarks import reference
 from benchmarks.common import seconds_per_step_in_turns, write_csv
 from pool_sim.physics import DEFAULT_INTEGRATOR, INTEGRATORS, Scene, Simulation
-from pool_sim.physics import fused
+from pool_sim.physics import stepper
 from pool_sim.physics.stability import stable_step_bound
 
 RATES_HZ = (10, 30, 100, 200, 300, 1000, 3000, 10000)
 SAMPLE_S = 0.1  # every rate on the ladder divides it, so all runs are sampled alike
-COST_SPHERES = 10_000
+COST_SPHERES = (3, 10_000)  # few: the default pool's size; many
+COST_STEPS = {3: (2000, 15), 10_000: (20, 31)}  # steps a call, turns
 FINE_RATE_HZ = 100_000
 SMOOTH = ('falling steel', 'bobbing cork', 'ping-pong under water')
 CONTACT_CASE = 'default pool (contacts)'
@@ -97,31 +95,31 @@ def reference_positions(scene, horizon, answer):
     return positions
 
 
-def many_copies(scene, integrator, backend='numpy'):
-    """The case's spheres copied to COST_SPHERES, stepped by `integrator`."""
-    copies = COST_SPHERES // len(scene.sphere_names)
+def many_copies(scene, integrator, count):
+    """The case's spheres copied to `count` (spheres beyond the first copies of the last
+    one), stepped by `integrator`."""
     params = {key: value for key, value in scene.values.items()
               if key.split('.')[0] not in scene.sphere_names}
     names = []
-    for copy in range(copies):
-        for name in scene.sphere_names:
-            names.append(f'{name}{copy}')
-            for key in ('mass', 'radius', 'position'):
-                params[f'{name}{copy}.{key}'] = scene[f'{name}.{key}']
+    for copy in range(count):
+        name = scene.sphere_names[copy % len(scene.sphere_names)]
+        names.append(f'{name}{copy}')
+        for key in ('mass', 'radius', 'position'):
+            params[f'{name}{copy}.{key}'] = scene[f'{name}.{key}']
     params.update({'sphere_names': names, 'integrator': integrator})
-    return Simulation(Scene(params), backend=backend)
+    return Simulation(Scene(params))
 
 
 def costs_ns_per_sphere_step(scene):
-    """{integrator: ns per sphere-step on the numpy pipeline, 'fused': the default's kernel
-    (nan where it does not apply)}, all timed in turns."""
-    simulations = {integrator: many_copies(scene, integrator) for integrator in INTEGRATORS}
-    if fused.supports(scene, 'cap'):
-        simulations['fused'] = many_copies(scene, DEFAULT_INTEGRATOR, 'fused')
-    seconds = seconds_per_step_in_turns(list(simulations.values()))
-    count = len(simulations[DEFAULT_INTEGRATOR].spheres.names)
-    costs = {name: s / count * 1e9 for name, s in zip(simulations, seconds)}
-    costs.setdefault('fused', float('nan'))
+    """{(integrator, spheres): ns per sphere-step}, at each of COST_SPHERES, the integrators
+    timed in turns."""
+    costs = {}
+    for count in COST_SPHERES:
+        simulations = [many_copies(scene, integrator, count) for integrator in INTEGRATORS]
+        steps, turns = COST_STEPS[count]
+        seconds = seconds_per_step_in_turns(simulations, steps, turns, restart=True)
+        costs.update({(integrator, count): s / count * 1e9
+                      for integrator, s in zip(INTEGRATORS, seconds)})
     return costs
 
 
@@ -148,9 +146,9 @@ def measure(quick):
         travel = float(np.max(np.linalg.norm(expected - scene.build_spheres().position[None],
                                              axis=1)))
         costs = costs_ns_per_sphere_step(scene)
-        fused_cost = costs['fused']
+        few, many = COST_SPHERES
         for integrator in INTEGRATORS:
-            cost = costs[integrator]
+            cost, cost_few = costs[(integrator, many)], costs[(integrator, few)]
             bound = stable_step_bound(scene.with_values(integrator=integrator))
             for rate in rates:
                 positions = run(scene.with_values(integrator=integrator,
@@ -162,10 +160,11 @@ def measure(quick):
                     'dt_s': 1.0 / rate, 'max_error_m': error if stable else float('inf'),
                     'relative_error': error / travel if stable else float('inf'),
                     'stable': stable, 'ns_per_sphere_step': cost,
+                    'ns_per_sphere_step_few': cost_few,
                     'us_per_sphere_second': cost * rate / 1000.0,
-                    'stable_step_bound_s': bound, 'travel_m': travel,
-                    'fused_default_ns_per_sphere_step': fused_cost})
-            print(f'{case:24} {integrator:24} {cost:8.0f} ns/sphere-step', flush=True)
+                    'stable_step_bound_s': bound, 'travel_m': travel})
+            print(f'{case:24} {integrator:24} {cost_few:8.1f} {cost:8.1f} ns/sphere-step',
+                  flush=True)
     return rows
 
 
@@ -184,28 +183,29 @@ def read_csv(path):
 
 def markdown(rows):
     lines = [f'Machine: {platform.machine()}, {os.cpu_count()} cores, '
-             f'Python {platform.python_version()}, numpy {np.__version__}; cost measured '
-             f'with {COST_SPHERES} spheres.', '']
+             f'Python {platform.python_version()}, numpy {np.__version__}; cost of the '
+             f'compiled step with the case\'s spheres copied to {COST_SPHERES[0]} and to '
+             f'{COST_SPHERES[1]:,}.', '']
     rates = sorted({r['rate_hz'] for r in rows})
     for case in dict.fromkeys(r['case'] for r in rows):
         case_rows = [r for r in rows if r['case'] == case]
         travel = case_rows[0]['travel_m']
         lines += [f'**{case}** — max position error in m (travel {travel:.3g} m); '
-                  'cost in ns per sphere-step', '',
-                  '| integrator | ns/sphere-step | stable step bound | '
-                  + ' | '.join(f'{r:g} Hz' for r in rates) + ' |',
-                  '|---|---:|---:|' + '---:|' * len(rates)]
+                  f'cost in ns per sphere-step at {COST_SPHERES[0]} and {COST_SPHERES[1]:,} '
+                  'spheres', '',
+                  f'| integrator | ns, {COST_SPHERES[0]} | ns, {COST_SPHERES[1]:,} | '
+                  'stable step bound | ' + ' | '.join(f'{r:g} Hz' for r in rates) + ' |',
+                  '|---|---:|---:|---:|' + '---:|' * len(rates)]
         for integrator in dict.fromkeys(r['integrator'] for r in case_rows):
             mine = {r['rate_hz']: r for r in case_rows if r['integrator'] == integrator}
             bound = mine[rates[0]]['stable_step_bound_s']
             cells = [f'{mine[r]["max_error_m"]:.2g}' if mine[r]['stable'] else 'unstable'
                      for r in rates]
-            lines.append(f'| {integrator} | {mine[rates[0]]["ns_per_sphere_step"]:.0f} | '
+            lines.append(f'| {integrator} | {mine[rates[0]]["ns_per_sphere_step_few"]:.0f} | '
+                         f'{mine[rates[0]]["ns_per_sphere_step"]:.0f} | '
                          + ('none' if bound == float('inf') else f'{bound * 1e3:.3g} ms')
                          + ' | ' + ' | '.join(cells) + ' |')
-        lines += [f'| {DEFAULT_INTEGRATOR}, fused kernel | '
-                  f'{case_rows[0]["fused_default_ns_per_sphere_step"]:.0f} | none | '
-                  'same errors as above |' + ' |' * (len(rates) - 1), '']
+        lines.append('')
     lines += ['**Observed order** (slope of log error against log step, three smallest '
               'steps above round-off)', '',
               '| integrator | ' + ' | '.join(SMOOTH) + ' |', '|---|' + '---:|' * len(SMOOTH)]
@@ -213,31 +213,25 @@ def markdown(rows):
         orders = [observed_order([r for r in rows if r['case'] == case
                                   and r['integrator'] == integrator]) for case in SMOOTH]
         lines.append(f'| {integrator} | ' + ' | '.join(f'{o:.2f}' for o in orders) + ' |')
-    lines += ['', '**Cheapest within 1 % of the travel at 200 Hz**', '']
+    lines += ['', '**Cheapest within 1 % of the travel at 200 Hz**, at '
+              f'{COST_SPHERES[0]} and at {COST_SPHERES[1]:,} spheres', '']
     for case in dict.fromkeys(r['case'] for r in rows):
         good = [r for r in rows if r['case'] == case and r['rate_hz'] == 200
                 and r['relative_error'] <= 0.01]
-        best = min(good, key=lambda r: r['ns_per_sphere_step'], default=None)
-        line = f'- {case}: ' + (f'{best["integrator"]} ({best["ns_per_sphere_step"]:.0f} '
-                                f'ns/sphere-step, error {best["relative_error"]:.2%})'
-                                if best else 'none')
-        default = next(r for r in rows if r['case'] == case and r['rate_hz'] == 200
-                       and r['integrator'] == DEFAULT_INTEGRATOR)
-        if not math.isnan(default['fused_default_ns_per_sphere_step']):
-            line += (f'; as users run it, the default\'s fused kernel: '
-                     f'{default["fused_default_ns_per_sphere_step"]:.0f} ns/sphere-step, error '
-                     f'{default["relative_error"]:.2%}')
-        lines.append(line)
-    lines += ['', 'The first name on each line is the cheapest on the numpy pipeline, where '
-              'every method runs alike; the fused kernel is what the default costs in use.']
-    costs = {r['integrator']: r['ns_per_sphere_step'] for r in rows
-             if r['case'] == CONTACT_CASE}
-    if costs:
-        pool = [r for r in rows if r['case'] == CONTACT_CASE][0]
-        lines += ['', f'Cost ratio RK4 / default on the pool: '
-                  f'{costs["rk4"] / costs[DEFAULT_INTEGRATOR]:.2f} on the numpy pipeline, '
-                  f'{costs["rk4"] / pool["fused_default_ns_per_sphere_step"]:.1f} against '
-                  'the default as users run it (fused kernel)']
+        parts = []
+        for field, count in (('ns_per_sphere_step_few', COST_SPHERES[0]),
+                             ('ns_per_sphere_step', COST_SPHERES[1])):
+            best = min(good, key=lambda r: r[field], default=None)
+            parts.append(f'{count:,} spheres: ' + (
+                f'{best["integrator"]} ({best[field]:.0f} ns/sphere-step, error '
+                f'{best["relative_error"]:.2%})' if best else 'none'))
+        lines.append(f'- {case}: ' + '; '.join(parts))
+    pool = {r['integrator']: r for r in rows if r['case'] == CONTACT_CASE}
+    if pool:
+        lines += ['', 'Cost ratio RK4 / default on the pool: '
+                  + ', '.join(f'{pool["rk4"][f] / pool[DEFAULT_INTEGRATOR][f]:.2f} at {n:,} '
+                              'spheres' for f, n in (('ns_per_sphere_step_few', COST_SPHERES[0]),
+                                                     ('ns_per_sphere_step', COST_SPHERES[1])))]
     return '\n'.join(lines) + '\n'
 
 
@@ -253,14 +247,9 @@ def plot(rows, path):
                     and r['stable'] and r['max_error_m'] > 0]
             axis.loglog([r['us_per_sphere_second'] for r in mine],
                         [r['max_error_m'] for r in mine], marker='o', label=integrator)
-            if integrator == DEFAULT_INTEGRATOR and mine and not math.isnan(
-                    mine[0]['fused_default_ns_per_sphere_step']):
-                # Same errors, the cost of the default as users run it.
-                axis.loglog([r['fused_default_ns_per_sphere_step'] * r['rate_hz'] / 1000.0
-                             for r in mine], [r['max_error_m'] for r in mine], 'k--',
-                            marker='.', label=f'{integrator}, fused kernel')
         axis.set_title(case)
-        axis.set_xlabel('cost: µs per sphere per simulated second')
+        axis.set_xlabel(f'cost: µs per sphere per simulated second ({COST_SPHERES[1]:,} '
+                        'spheres)')
         axis.set_ylabel('max position error, m')
         axis.grid(True, which='both', alpha=0.3)
     axes.flat[0].legend(fontsize=8)
@@ -278,7 +267,7 @@ def main():
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    fused.use_threads(1)  # the fused kernel as the node runs it
+    stepper.use_threads(1)  # as the node runs it
     if args.tables_only:
         rows = read_csv(out / 'accuracy.csv')
     else:

@@ -47,20 +47,20 @@ def cpu_seconds(pid):
 
 
 def seconds_per_step_in_turns(simulations, steps=20, repeats=31, restart=False):
-    """Median seconds per step of each simulation, timed in turns: each repeat steps every
-    simulation `steps` times in a row, so that the shared machine's slow spells fall on all
-    of them alike and their ratios hold. restart: every repeat starts from the initial state
-    (a sphere's cost can depend on where it is)."""
+    """Median seconds per step of each simulation, timed in turns: each repeat runs every
+    simulation `steps` steps in a row in one compiled call (as Simulation.advance does), so
+    that the shared machine's slow spells fall on all of them alike and their ratios hold.
+    restart: every repeat starts from the initial state (a sphere's cost can depend on where
+    it is)."""
     for simulation in simulations:
-        simulation.step()  # compiles the kernel, if any, outside the timing
+        simulation.step()  # compiles (or loads) the step, outside the timing
     samples = [[] for _ in simulations]
     for _ in range(repeats):
         for simulation, mine in zip(simulations, samples):
             if restart:
                 simulation.reset()
             start = time.perf_counter()
-            for _ in range(steps):
-                simulation.step()
+            simulation.run(steps, simulation.max_step)
             mine.append((time.perf_counter() - start) / steps)
     return [statistics.median(mine) for mine in samples]
 

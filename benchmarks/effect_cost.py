@@ -2,15 +2,15 @@
 
     .venv/bin/python -m benchmarks.effect_cost [--spheres 1000]
 
-Prints ns per sphere-step on the fused kernel (as the node runs it) and on the numpy
-pipeline (one pass per effect), all rows measured in one run. A sphere's cost depends on where it
+Prints ns per sphere-step of the compiled step (one thread, as the node runs it), all rows
+measured in one run. A sphere's cost depends on where it
 is (one resting on the floor takes the friction branch), so every scene is timed over the
 same STEPS steps from its start, the scenes taking turns (common.seconds_per_step_in_turns).
 """
 import argparse
 
 from benchmarks.common import many_spheres_scene, seconds_per_step_in_turns
-from pool_sim.physics import DEFAULT_EFFECTS, fused, Simulation
+from pool_sim.physics import DEFAULT_EFFECTS, Simulation, stepper
 
 SCENES = [
     ('default: ' + ', '.join(DEFAULT_EFFECTS), DEFAULT_EFFECTS),
@@ -26,21 +26,18 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--spheres', type=int, default=1000)
     count = parser.parse_args().spheres
-    fused.use_threads(1)  # as the node runs it
-    columns = {}
-    for backend in ('auto', 'numpy'):  # auto: the fused kernel wherever it applies
-        seconds = seconds_per_step_in_turns(
-            [Simulation(many_spheres_scene(count, effects), backend=backend)
-             for _, effects in SCENES], STEPS, REPEATS, restart=True)
-        columns[backend] = [s / count * 1e9 for s in seconds]
+    stepper.use_threads(1)  # as the node runs it
+    seconds = seconds_per_step_in_turns(
+        [Simulation(many_spheres_scene(count, effects)) for _, effects in SCENES], STEPS,
+        REPEATS, restart=True)
+    cost = [s / count * 1e9 for s in seconds]
     print(f'{count} spheres, default integrator; ns per sphere-step, median of {REPEATS} '
-          f'turns of {STEPS} steps from the same start')
-    print(f'| {"effects":<55} | fused kernel | vs default | numpy pipeline | vs default |')
-    print(f'|{"-" * 57}|-------------:|-----------:|---------------:|-----------:|')
-    fast, plain = columns['auto'], columns['numpy']
-    for (label, _), cost, numpy_cost in zip(SCENES, fast, plain):
-        print(f'| {label:<55} | {cost:12.1f} | {cost / fast[0]:10.2f} | {numpy_cost:14.1f} | '
-              f'{numpy_cost / plain[0]:10.2f} |')
+          f'turns of {STEPS} steps (one call) from the same start')
+    print(f'| {"effects":<55} | ns/sphere-step | vs default |')
+    print(f'|{"-" * 57}|---------------:|-----------:|')
+    for (label, _), each in zip(SCENES, cost):
+        print(f'| {label:<55} | {each:14.1f} | {each / cost[0]:10.2f} |')
+
 
 if __name__ == '__main__':
     main()

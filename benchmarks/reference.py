@@ -47,3 +47,58 @@ def vertical_through_the_surface(times, z0, v0, radius, mass, drag_coefficient=0
                          t_eval=times, rtol=1e-12, atol=1e-14, max_step=0.01)
     assert solution.success, solution.message
     return solution.y[0]
+
+
+def smooth_motion(times, position, velocity, sphere, world, effects, submerged_volume='cap'):
+    """(3, len(times)) positions of one sphere under the smooth effects listed (gravity,
+    buoyancy, drag, lift, added_mass), solved by DOP853 at rtol 1e-12: the model pool_sim
+    states, written here again from its description, in three dimensions.
+
+    sphere: dict of mass, radius, drag_coefficient, lift_coefficient, lift_area,
+    lift_normal (3), external_force (3).  world: dict of gravity (3), air_density, wind (3),
+    water_density, current (3), surface_z.  submerged_volume: 'cap' (the exact spherical
+    cap) or 'linear' (depth / diameter).
+    Each medium acts on the part of the volume inside it; added mass is half the displaced
+    fluid's mass, joining the inertia.
+    """
+    r, m = sphere['radius'], sphere['mass']
+    volume, area = 4.0 / 3.0 * math.pi * r**3, math.pi * r**2
+    gravity = np.asarray(world['gravity'], dtype=float)
+    media = ((world['air_density'], np.asarray(world['wind'], dtype=float)),
+             (world['water_density'], np.asarray(world['current'], dtype=float)))
+    normal = np.asarray(sphere['lift_normal'], dtype=float)
+    external = np.asarray(sphere['external_force'], dtype=float)
+
+    def rate(t, state):
+        x, v = state[:3], state[3:]
+        depth = min(max(world['surface_z'] - (x[2] - r), 0.0), 2.0 * r)
+        if submerged_volume == 'cap':
+            under = math.pi * depth * depth * (3.0 * r - depth) / 3.0 / volume
+        else:
+            under = depth / (2.0 * r)
+        shares = (1.0 - under, under)
+        displaced = sum(density * share for (density, _), share in zip(media, shares)) * volume
+        force = external.copy()
+        if 'gravity' in effects:
+            force += m * gravity
+        if 'buoyancy' in effects:
+            force -= displaced * gravity
+        for (density, flow), share in zip(media, shares):
+            relative = v - flow
+            speed = float(np.linalg.norm(relative))
+            if 'drag' in effects:
+                force -= 0.5 * density * sphere['drag_coefficient'] * area * share * speed \
+                    * relative
+            if 'lift' in effects and speed > 0.0:
+                across = normal - (normal @ relative) / speed**2 * relative
+                size = float(np.linalg.norm(across))
+                if size > 0.0:
+                    force += (0.5 * density * sphere['lift_coefficient'] * sphere['lift_area']
+                              * share * speed**2 / size) * across
+        inertia = m + (0.5 * displaced if 'added_mass' in effects else 0.0)
+        return np.concatenate([v, force / inertia])
+    solution = solve_ivp(rate, (0.0, float(times[-1])), np.concatenate([position, velocity]),
+                         method='DOP853', t_eval=times, rtol=1e-12, atol=1e-14,
+                         max_step=0.005)
+    assert solution.success, solution.message
+    return solution.y[:3]

@@ -4,13 +4,14 @@
 
 Writes scaling.csv, scaling.md and scaling.png. All figures come from one run on one
 machine: ns per sphere-step (median of repeats) for
-  - pool_sim's default step (fused kernel, one thread, as the node runs it; and on every
-    core) and its numpy path;
-  - the price of each effect: gravity only, gravity + drag (fused kernel);
+  - pool_sim's default step (the compiled step, one thread, as the node runs it; and on
+    every core), many steps per call (as Simulation.advance and the node's tick run it) and
+    one step per call (Simulation.step from Python);
+  - the price of each effect: gravity only, gravity + drag;
   - the seed-style object-per-sphere port (benchmarks/seed_port.py);
   - MuJoCo stepping N free spheres, fluid model on (density 1000, viscosity 1e-3 Pa*s)
-    and off, contacts off;
-  - a memory-bandwidth bound: the bytes the fused step must read and write per sphere,
+    and off, contacts off, many steps per call (mj_step's nstep) and, with fluid, one;
+  - a memory-bandwidth bound: the bytes the default step must read and write per sphere,
     divided by a copy bandwidth measured in the same run.
 """
 import argparse
@@ -22,13 +23,14 @@ import numpy as np
 
 from benchmarks.common import timed, write_csv
 from benchmarks.seed_port import Environment, PointMass
-from pool_sim.physics import DEFAULT_EFFECTS, fused, Scene, Simulation, Spheres
+from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, Spheres, stepper
 
+DEFAULT = 'pool_sim default'
 COUNTS = (1, 10, 100, 1_000, 10_000, 100_000, 1_000_000)
 SEED_PORT_LARGEST = 10_000  # beyond, one step takes seconds
 CORES = os.cpu_count()
 MUJOCO_LARGEST = 10_000  # a model holds at most 65 534 bodies; 10 000 load in ~13 s
-# The fused step reads position, velocity, external force (3 doubles each), mass, radius,
+# The default step reads position, velocity, external force (3 doubles each), mass, radius,
 # volume, cross-section, drag coefficient (1 each) and writes position and velocity, plus
 # its start-of-step copy of both (3 + 3 doubles written, then read by the contact pass).
 BYTES_PER_SPHERE_STEP = 8 * ((3 + 3 + 3 + 5) + (3 + 3) + 2 * (3 + 3))
@@ -48,14 +50,25 @@ def random_spheres(count, seed=0):
         external_force=np.zeros((3, count)))
 
 
-def pool_sim_cost(count, effects, backend='auto', threads=1):
+# Steps per call: a call of about 10^5 sphere-steps (a few ms), one step from 10^5 spheres.
+SPHERE_STEPS_PER_CALL = 100_000
+
+
+def steps_per_call(count):
+    return max(1, SPHERE_STEPS_PER_CALL // count)
+
+
+def pool_sim_cost(count, effects, threads=1, one_per_call=False):
     scene = Scene({'effects': list(effects)})
-    sim = Simulation(scene, initial_spheres=random_spheres(count), backend=backend)
-    fused.use_threads(threads)
+    sim = Simulation(scene, initial_spheres=random_spheres(count))
+    stepper.use_threads(threads)
     try:
-        return timed(sim.step) / count * 1e9
+        if one_per_call:
+            return timed(sim.step) / count * 1e9
+        steps = steps_per_call(count)
+        return timed(lambda: sim.run(steps, sim.max_step)) / steps / count * 1e9
     finally:
-        fused.use_threads(1)
+        stepper.use_threads(1)
 
 
 def seed_port_cost(count):
@@ -66,7 +79,7 @@ def seed_port_cost(count):
     return timed(lambda: environment.step(0.005), budget_s=1.5, repeats=5) / count * 1e9
 
 
-def mujoco_cost(count, fluid):
+def mujoco_cost(count, fluid, one_per_call=False):
     import mujoco
     spheres = random_spheres(count)
     bodies = ''.join(
@@ -79,7 +92,10 @@ def mujoco_cost(count, fluid):
            f'<size memory="{memory}M"/><worldbody>{bodies}</worldbody></mujoco>')
     model = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(model)
-    return timed(lambda: mujoco.mj_step(model, data)) / count * 1e9
+    if one_per_call:
+        return timed(lambda: mujoco.mj_step(model, data)) / count * 1e9
+    steps = steps_per_call(count)
+    return timed(lambda: mujoco.mj_step(model, data, nstep=steps)) / steps / count * 1e9
 
 
 def copy_bandwidth_bytes_per_s():
@@ -108,15 +124,17 @@ def measure(largest):
     bound = BYTES_PER_SPHERE_STEP / bandwidth * 1e9
     rows = []
     series = {
-        'pool_sim default (fused)': lambda n: pool_sim_cost(n, DEFAULT_EFFECTS),
-        f'pool_sim default (fused, {CORES} threads)': lambda n: pool_sim_cost(
+        DEFAULT: lambda n: pool_sim_cost(n, DEFAULT_EFFECTS),
+        f'pool_sim default ({CORES} threads)': lambda n: pool_sim_cost(
             n, DEFAULT_EFFECTS, threads=CORES),
-        'pool_sim default (numpy)': lambda n: pool_sim_cost(n, DEFAULT_EFFECTS, 'numpy'),
-        'pool_sim gravity only (fused)': lambda n: pool_sim_cost(n, ['gravity'], 'fused'),
-        'pool_sim gravity + drag (fused)': lambda n: pool_sim_cost(
-            n, ['gravity', 'drag'], 'fused'),
+        'pool_sim default, one step per call': lambda n: pool_sim_cost(
+            n, DEFAULT_EFFECTS, one_per_call=True),
+        'pool_sim gravity only': lambda n: pool_sim_cost(n, ['gravity']),
+        'pool_sim gravity + drag': lambda n: pool_sim_cost(n, ['gravity', 'drag']),
         'seed-style port': lambda n: seed_port_cost(n) if n <= SEED_PORT_LARGEST else None,
         'MuJoCo, fluid on': lambda n: mujoco_cost(n, True) if n <= MUJOCO_LARGEST else None,
+        'MuJoCo, fluid on, one step per call': lambda n: mujoco_cost(
+            n, True, one_per_call=True) if n <= MUJOCO_LARGEST else None,
         'MuJoCo, fluid off': lambda n: mujoco_cost(n, False) if n <= MUJOCO_LARGEST else None,
     }
     # The first timing in a process runs slow (9.9 against 5.5 µs for the same one-sphere
@@ -142,15 +160,16 @@ def markdown(rows, bandwidth):
     arrays, total = memory_per_sphere()
     lines = [f'Machine: {platform.machine()}, {os.cpu_count()} cores, Python '
              f'{platform.python_version()}, numpy {np.__version__}; copy bandwidth '
-             f'{bandwidth / 1e9:.1f} GB/s (read + write); the fused step moves '
+             f'{bandwidth / 1e9:.1f} GB/s (read + write); the default step moves '
              f'{BYTES_PER_SPHERE_STEP} B per sphere.', '',
-             'ns per sphere-step (median of repeats):', '',
+             f'ns per sphere-step (median of repeats; {SPHERE_STEPS_PER_CALL:,} sphere-steps a '
+             'call unless one step per call):', '',
              '| series | ' + ' | '.join(f'{n:,}' for n in counts) + ' |',
              '|---|' + '---:|' * len(counts)]
     for label in labels:
         cells = [f'{value[(label, n)]:.1f}' if (label, n) in value else '—' for n in counts]
         lines.append(f'| {label} | ' + ' | '.join(cells) + ' |')
-    default = 'pool_sim default (fused)'
+    default = DEFAULT
 
     def ratio(a, b, n):
         return value[(a, n)] / value[(b, n)] if (a, n) in value and (b, n) in value else None
@@ -158,14 +177,18 @@ def markdown(rows, bandwidth):
     for n in counts:
         parts = []
         for label, against in (('seed-style port', default), ('MuJoCo, fluid on', default),
-                               ('MuJoCo, fluid off', default), (default, 'bandwidth bound')):
+                               ('MuJoCo, fluid off', default),
+                               ('MuJoCo, fluid on, one step per call',
+                                'pool_sim default, one step per call'),
+                               (default, 'bandwidth bound')):
             r = ratio(label, against, n)
             if r is not None:
                 parts.append(f'{label} / {against}: {r:.1f}')
         if parts:
             lines.append(f'- {n:,} spheres: ' + '; '.join(parts))
-    lines += ['', f'Per-step time at 1 sphere: {value[(default, 1)] / 1000:.1f} µs '
-              f'(fused), {value[("pool_sim default (numpy)", 1)] / 1000:.1f} µs (numpy).',
+    one = 'pool_sim default, one step per call'
+    lines += ['', f'Per-step time at 1 sphere: {value[(default, 1)] / 1000:.3f} µs many steps '
+              f'a call, {value[(one, 1)] / 1000:.2f} µs one step a call.',
               f'Memory per sphere in the core: {arrays:.0f} B of arrays, {total:.0f} B with '
               'its name and the name index.']
     return '\n'.join(lines) + '\n'

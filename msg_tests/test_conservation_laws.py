@@ -4,6 +4,7 @@ import pytest
 
 from pool_sim.physics import Scene, Simulation
 from pool_sim.physics.effects import lift_force
+from pool_sim.physics.stepper import body_tuple, environment_tuple
 from scenes import G, one_sphere
 
 SCENES = {
@@ -46,15 +47,15 @@ def test_lift_is_perpendicular_to_the_relative_velocity_with_the_stated_magnitud
                        air__wind=[1.0, 2.0, 0.0], ball__lift_coefficient=0.8)
     sim = Simulation(scene)
     spheres = sim.spheres
-    for water_fraction in (np.zeros(1), np.ones(1)):
-        medium = sim.environment.water if water_fraction[0] else sim.environment.air
+    env = environment_tuple(sim.environment)
+    for water_fraction in (0.0, 1.0):
+        medium = sim.environment.water if water_fraction else sim.environment.air
         for _ in range(n):
             velocity = rng.normal(size=(3, 1)) * 5.0
             spheres.lift_normal = rng.normal(size=(3, 1))
             spheres.lift_normal /= np.linalg.norm(spheres.lift_normal)
-            force = np.zeros((3, 1))
-            lift_force(sim.environment, spheres, spheres.position, velocity, water_fraction,
-                       force)
+            force = np.array(lift_force(env, body_tuple(spheres, 0), water_fraction,
+                                        tuple(velocity[:, 0]))).reshape(3, 1)
             relative = velocity[:, 0] - medium.flow_velocity
             assert abs(force[:, 0] @ relative) <= 1e-12 * np.linalg.norm(force) * np.linalg.norm(
                 relative)

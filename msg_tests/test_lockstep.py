@@ -13,7 +13,7 @@ from std_srvs.srv import SetBool, Trigger
 
 from lockstep_nodes import (ArrayKeeper, first_difference, LOCKSTEP_PARAMS,
                             record_across_processes, record_in_process)
-from pool_sim.physics import fused, InvalidInput, Scene
+from pool_sim.physics import InvalidInput, Scene, stepper
 from pool_sim.ros.depth_keeper import DepthKeeper
 from pool_sim.testing import PoolSim
 
@@ -81,7 +81,7 @@ def test_the_forces_array_answers_unstamped(pool_sim):
 
 
 def test_two_numba_threads_give_the_same_loop_as_one(pool_sim):
-    count = 2 * fused.parallel_from_spheres()  # the parallel build runs
+    count = 2 * stepper.parallel_from_spheres()  # the parallel build runs
     names = [f's{i}' for i in range(count)]
     scene = {**KEEPER_SCENE, 'lockstep_inputs': ['forces'], 'per_sphere_topics': False,
              'sphere_names': names,
@@ -90,13 +90,13 @@ def test_two_numba_threads_give_the_same_loop_as_one(pool_sim):
                                       'y': [0.0] * count, 'z': [1.0] * count}}}
     found = []
     for threads in (1, 2, 1):
-        fused.use_threads(threads)
+        stepper.use_threads(threads)
         try:
             sim = pool_sim(scene)
             sim.add(ArrayKeeper)
             found.append(digests(sim, 3.0))
         finally:
-            fused.use_threads(1)
+            stepper.use_threads(1)
     assert found[0] == found[1] == found[2]
 
 

@@ -9,8 +9,9 @@ the normal impulse the floor gave in this step, which for a resting sphere is ex
 weight x dt.
 """
 from dataclasses import dataclass
+import math
 
-import numpy as np
+from .media import compiled
 
 
 @dataclass(frozen=True)
@@ -27,44 +28,40 @@ class ContactParameters:
     rolling_friction: float = 0.01
 
 
-def resolve_contacts(pool, params, radius, old_position, old_velocity,
-                     position, velocity, dt, friction):
-    """Push spheres back inside the pool and bounce them; friction on the floor if asked.
+@compiled
+def _against_faces(low, high, p, v, old_p, old_v, restitution, dt):
+    """One axis of one sphere against its two faces, low and high (m, the centre's limits):
+    (position, velocity, impulse per mass from the low face (m/s), overflow).
 
-    position, velocity: (3, n), changed in place.  old_*: the state at the step's start.
-    radius: (n,) m.  Returns nothing.  All faces are handled in whole-array operations.
-    """
-    low = pool.corner_min[:, None] + radius
-    high = pool.corner_max[:, None] - radius
-    # On a face and moving into it is contact too: explicit Euler's position lags its
-    # velocity, so a sphere resting on the floor ends each step exactly on it.
-    below = (position < low) | ((position == low) & (velocity < 0.0))
-    above = (position > high) | ((position == high) & (velocity > 0.0))
-    hit = below | above
-    if not hit.any():
-        return
-    inward = np.where(below, 1.0, -1.0)
-    face = np.where(below, low, high)
-    normal_speed = inward * velocity
-    approach_start, approach_end = -inward * old_velocity, -normal_speed
-    rebound = params.restitution * impact_speed(
-        approach_start, approach_end, np.maximum(inward * (old_position - face), 0.0),
-        np.maximum(inward * (face - position), 0.0), dt)
-    # A rebound no faster than the speed the step added toward the face would be back on it
-    # within a step: resting contact. Without this, explicit Euler, whose every step gains
-    # energy, hops on the floor for ever.
-    rebound = np.where(rebound > approach_end - approach_start, rebound, 0.0)
-    bounced = np.where(normal_speed >= 0.0, normal_speed, rebound)
-    position[hit] = face[hit]
-    velocity[hit] = (inward * bounced)[hit]
-    if friction and below[2].any():
-        floor_impulse_per_mass = np.where(below[2], bounced[2] - normal_speed[2], 0.0)
-        _floor_friction(params, floor_impulse_per_mass, old_position, position, velocity, dt)
-        # Friction's position correction must not undo a wall's: in a corner it points back
-        # at the wall the sphere just bounced off.
-        np.clip(position[:2], low[:2], high[:2], out=position[:2])
+    overflow: the bounce speed would not fit a double (the step guard's, then)."""
+    if low < p < high:
+        return p, v, 0.0, False  # almost every sphere, on every axis: two comparisons
+    below = p < low or (p == low and v < 0.0)
+    if not (below or p > high or (p == high and v > 0.0)):
+        return p, v, 0.0, False
+    inward = 1.0 if below else -1.0
+    face = low if below else high
+    normal_speed = inward * v
+    if normal_speed >= 0.0:
+        bounced = normal_speed
+    elif old_v == 0.0 and old_p == face:
+        bounced = 0.0  # at rest on the face: what impact_speed gives, at once
+    else:
+        approach_start, approach_end = -inward * old_v, -normal_speed
+        bounced = restitution * impact_speed(
+            approach_start, approach_end, max(inward * (old_p - face), 0.0),
+            max(inward * (face - p), 0.0), dt)
+        # A rebound no faster than the speed the step added toward the face would be back
+        # on it within a step: resting contact. Without this, explicit Euler, whose every
+        # step gains energy, hops on the floor for ever.
+        if not bounced > approach_end - approach_start:
+            bounced = 0.0
+        if not math.isfinite(bounced):
+            return p, v, 0.0, True
+    return face, inward * bounced, (bounced - normal_speed) if below else 0.0, False
 
 
+@compiled
 def impact_speed(approach_start, approach_end, before, past, dt):
     """Speed (m/s) at which a sphere reached the face in this step.
 
@@ -79,29 +76,49 @@ def impact_speed(approach_start, approach_end, before, past, dt):
     or its end would have had without the face.
     """
     acceleration = (approach_end - approach_start) / dt
-    squared = np.minimum(approach_start * approach_start + 2.0 * acceleration * before,
-                         approach_end * approach_end - 2.0 * acceleration * past)
-    return np.sqrt(np.maximum(squared, 0.0))
+    squared = min(approach_start * approach_start + 2.0 * acceleration * before,
+                  approach_end * approach_end - 2.0 * acceleration * past)
+    return math.sqrt(max(squared, 0.0))
 
 
-def _floor_friction(params, impulse_per_mass, old_position, position, velocity, dt):
-    """Stick while the needed tangential impulse is within mu_s x normal impulse, else slide.
+@compiled
+def resolve_contacts(pool, contact, friction, radius, old_state, state, dt):
+    """Floor, walls and ceiling for one sphere, and friction on the floor when `friction`.
 
-    A sticking sphere keeps its horizontal place from the step's start: otherwise the tiny
-    slide of each step, undone in velocity only, would add up to a creep.
+    pool: (min_x, min_y, min_z, max_x, max_y, max_z) m.  contact: ContactParameters' fields
+    in order.  old_state, state: (x, y, z, vx, vy, vz) at the step's start and end.
+    Returns (the state after contact, overflow): overflow when a bounce speed would not
+    fit a double, for the step guard.
     """
-    touching = impulse_per_mass > 0.0
-    tangential = velocity[:2, touching]
-    tangential_speed = np.hypot(tangential[0], tangential[1])
-    normal_impulse = impulse_per_mass[touching]
-    sticks = tangential_speed <= params.static_friction * normal_impulse
-    slowdown = np.minimum(
-        tangential_speed,
-        (params.kinetic_friction + params.rolling_friction) * normal_impulse)
-    scale = np.where(sticks, 0.0, 1.0 - np.divide(
-        slowdown, tangential_speed, out=np.ones_like(slowdown), where=tangential_speed > 0.0))
-    new_tangential = tangential * scale
-    # Position follows the velocity change as a symplectic step would; sticking undoes the slide.
-    moved = position[:2, touching] + dt * (new_tangential - tangential)
-    position[:2, touching] = np.where(sticks, old_position[:2, touching], moved)
-    velocity[:2, touching] = new_tangential
+    restitution, static_friction, kinetic_friction, rolling_friction = contact
+    x, y, z, vx, vy, vz = state
+    ox, oy, oz, ovx, ovy, ovz = old_state
+    x, vx, _, overflow_x = _against_faces(pool[0] + radius, pool[3] - radius, x, vx, ox, ovx,
+                                          restitution, dt)
+    y, vy, _, overflow_y = _against_faces(pool[1] + radius, pool[4] - radius, y, vy, oy, ovy,
+                                          restitution, dt)
+    z, vz, floor_impulse, overflow_z = _against_faces(pool[2] + radius, pool[5] - radius, z,
+                                                      vz, oz, ovz, restitution, dt)
+    if overflow_x or overflow_y or overflow_z:
+        return state, True
+    if friction and floor_impulse > 0.0:
+        # Coulomb at the impulse level: stick while the tangential speed is within
+        # mu_s x the normal impulse per mass, else slide. A sticking sphere keeps its
+        # horizontal place from the step's start: otherwise the tiny slide of each step,
+        # undone in velocity only, would add up to a creep.
+        tangential_speed = math.hypot(vx, vy)
+        if tangential_speed <= static_friction * floor_impulse:
+            x, y, vx, vy = ox, oy, 0.0, 0.0
+        else:
+            slowdown = min(tangential_speed,
+                           (kinetic_friction + rolling_friction) * floor_impulse)
+            scale = 1.0 - slowdown / tangential_speed if tangential_speed > 0.0 else 1.0
+            # Position follows the velocity change as a symplectic step would.
+            x += dt * (vx * scale - vx)
+            y += dt * (vy * scale - vy)
+            vx, vy = vx * scale, vy * scale
+        # Friction's position correction must not undo a wall's: in a corner it points
+        # back at the wall the sphere just bounced off.
+        x = min(max(x, pool[0] + radius), pool[3] - radius)
+        y = min(max(y, pool[1] + radius), pool[4] - radius)
+    return (x, y, z, vx, vy, vz), False

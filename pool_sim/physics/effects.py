@@ -1,166 +1,178 @@
-"""The smooth forces, one small function each, and the composition a scene asks for.
+"""The smooth forces, one small compiled function each, and the composition a scene lists.
+
+Every function here works on one sphere and is compiled by numba and inlined where it is
+called: the step (stepper.py) composes them into one loop over the spheres, in which an
+effect the scene does not list is a branch on a compile-time constant, removed before the
+loop is built. What a sphere is to these functions:
+
+- `listed`: the scene's effects as compile-time flags, see effect_flags().
+- `env`: the world, a flat tuple (gx, gy, gz, air_density, wind_x, wind_y, wind_z,
+  water_density, current_x, current_y, current_z, surface_z): m/s^2, kg/m^3, m/s, m.
+- `body`: one sphere's properties, a flat tuple (mass kg, radius m, volume m^3,
+  cross_section m^2, drag_coefficient, lift_coefficient, lift_area m^2, lift normal
+  (3, unit), external force (3, N, world axes)).
+- positions and velocities are 3-tuples, m and m/s; forces 3-tuples, N.
 
 Forces from each medium are weighted by the fraction of the sphere's volume inside it:
-`water_fraction` (n,) is that fraction for water, 1 - water_fraction for air.
-Every force function adds into `force` (3, n) N in place and returns nothing.
+`fraction` is that fraction for water, 1 - fraction for air.
 """
-import numpy as np
+import math
 
-from .media import (cap_fraction, cap_fraction_slope, linear_fraction, linear_fraction_slope,
-                    waterline_area)
+from .media import compiled, submerged_fraction, submerged_fraction_slope, \
+    waterline_volume_slope
 
 EFFECTS = ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass', 'contact', 'friction')
 DEFAULT_EFFECTS = ('gravity', 'buoyancy', 'drag', 'contact', 'friction')
-_NEEDS_WATER_FRACTION = {'buoyancy', 'drag', 'lift', 'added_mass'}
+# The smooth effects, in the order of effect_flags' tuple (then the submerged-volume model).
+SMOOTH_EFFECTS = ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass')
 
 
-def gravity_force(env, spheres, position, velocity, water_fraction, force):
+def effect_flags(effects, submerged_volume='cap'):
+    """The compile-time tuple the compiled functions branch on: (gravity, buoyancy, drag,
+    lift, added_mass, cap) as bools; cap is False for the linear submerged volume."""
+    unknown = set(effects) - set(EFFECTS)
+    if unknown:
+        raise ValueError(f'effects: unknown {sorted(unknown)}; allowed: {list(EFFECTS)}')
+    if submerged_volume not in ('cap', 'linear'):
+        raise ValueError(f"submerged_volume: 'cap' or 'linear', got {submerged_volume!r}")
+    return tuple(name in effects for name in SMOOTH_EFFECTS) + (submerged_volume == 'cap',)
+
+
+@compiled
+def water_fraction(listed, env, body, z):
+    """Fraction of the sphere under water; 0 without computing it when no listed effect
+    needs it (gravity alone, or nothing)."""
+    gravity, buoyancy, drag, lift, added, cap = listed
+    if not (buoyancy or drag or lift or added):
+        return 0.0
+    return submerged_fraction(cap, z, body[1], env[11])
+
+
+@compiled
+def gravity_force(env, body):
     """m*g."""
-    force += env.gravity[:, None] * spheres.mass
+    mass = body[0]
+    return env[0] * mass, env[1] * mass, env[2] * mass
 
 
-def buoyancy_force(env, spheres, position, velocity, water_fraction, force):
+@compiled
+def displaced_mass(env, body, fraction):
+    """rho*V_sub summed over both media, kg."""
+    return body[2] * (env[3] + (env[7] - env[3]) * fraction)
+
+
+@compiled
+def buoyancy_force(env, body, fraction):
     """-rho*V_sub*g from each medium: always against gravity, whatever its direction."""
-    displaced_mass = spheres.volume * (
-        env.air.density + (env.water.density - env.air.density) * water_fraction)
-    force -= env.gravity[:, None] * displaced_mass
+    displaced = displaced_mass(env, body, fraction)
+    return -env[0] * displaced, -env[1] * displaced, -env[2] * displaced
 
 
-def lift_force(env, spheres, position, velocity, water_fraction, force):
-    """1/2*rho*C_l*A*|v_rel|^2 along the part of the lifting normal perpendicular to v_rel."""
-    normal = spheres.lift_normal
-    for medium, fraction in ((env.air, 1.0 - water_fraction), (env.water, water_fraction)):
-        relative = velocity - medium.flow_velocity[:, None]
-        speed_sq = np.einsum('ij,ij->j', relative, relative)
-        # direction = |w|^2 * (n - (n.w^)w^): perpendicular to w, in the plane of n and w.
-        direction = normal * speed_sq - np.einsum('ij,ij->j', normal, relative) * relative
-        length = np.sqrt(np.einsum('ij,ij->j', direction, direction))
-        magnitude = (0.5 * medium.density * fraction * spheres.lift_coefficient
-                     * spheres.lift_area * speed_sq)
-        # Along the velocity itself the lifting plane is undefined: no lift there.
-        scale = np.divide(magnitude, length, out=np.zeros_like(length), where=length > 1e-300)
-        force += direction * scale
-
-
-def drag_factors(env, spheres, water_fraction):
-    """1/2*rho*C_d*A*fraction per medium, kg/m: drag = -factor * |v_rel| * v_rel.
-
-    (factor_air, factor_water), each (n,).
-    """
-    shape = 0.5 * spheres.drag_coefficient * spheres.cross_section
-    return (shape * env.air.density * (1.0 - water_fraction),
-            shape * env.water.density * water_fraction)
-
-
-def drag_gains(env, factors, velocity):
-    """Quadratic drag written as linear gains: F = -gain_air*(v - wind) - gain_water*(v - current).
-
-    factors: drag_factors' (factor_air, factor_water). gain = factor * |v_rel|, kg/s, one
-    (n,) array per medium.
-    """
-    gains = []
-    for medium, factor in zip((env.air, env.water), factors):
-        relative = velocity - medium.flow_velocity[:, None]
-        gains.append(factor * np.sqrt(np.einsum('ij,ij->j', relative, relative)))
-    return gains[0], gains[1]
-
-
-def added_mass(env, spheres, water_fraction):
+@compiled
+def added_mass(env, body, fraction):
     """1/2*rho*V in each medium (kg): the fluid a sphere must push aside as it accelerates."""
-    return 0.5 * spheres.volume * (
-        env.air.density + (env.water.density - env.air.density) * water_fraction)
+    return 0.5 * displaced_mass(env, body, fraction)
 
 
-class Dynamics:
-    """The smooth part of a scene: the forces its `effects` list names, and nothing else.
+@compiled
+def drag_factors(env, body, fraction):
+    """(factor_air, factor_water) = 1/2*rho*C_d*A*fraction per medium, kg/m: the drag of
+    a medium is -factor * |v_rel| * v_rel."""
+    shape = 0.5 * body[4] * body[3]
+    return shape * env[3] * (1.0 - fraction), shape * env[7] * fraction
 
-    Composed once; an effect that is not listed is never called.
-    submerged_volume: 'cap' (exact) or 'linear' (the seed's approximation, for comparison).
+
+@compiled
+def drag_force(env, factor_air, factor_water, velocity):
+    """-factor*|v - u|*(v - u) per medium, u = wind or current."""
+    vx, vy, vz = velocity
+    ax, ay, az = vx - env[4], vy - env[5], vz - env[6]
+    wx, wy, wz = vx - env[8], vy - env[9], vz - env[10]
+    gain_air = factor_air * math.sqrt(ax * ax + ay * ay + az * az)
+    gain_water = factor_water * math.sqrt(wx * wx + wy * wy + wz * wz)
+    return (-(gain_air * ax + gain_water * wx), -(gain_air * ay + gain_water * wy),
+            -(gain_air * az + gain_water * wz))
+
+
+@compiled
+def medium_lift(density, fraction, body, rx, ry, rz):
+    """1/2*rho*C_l*A*|w|^2*fraction along the part of the lifting normal perpendicular to the
+    relative velocity w = (rx, ry, rz); none along w itself, where that plane is undefined."""
+    nx, ny, nz = body[7], body[8], body[9]
+    speed_sq = rx * rx + ry * ry + rz * rz
+    along = nx * rx + ny * ry + nz * rz
+    # |w|^2 * (n - (n.w^)w^): perpendicular to w, in the plane of n and w.
+    dx, dy, dz = nx * speed_sq - along * rx, ny * speed_sq - along * ry, nz * speed_sq - along * rz
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    magnitude = 0.5 * density * fraction * body[5] * body[6] * speed_sq
+    scale = magnitude / length if length > 1e-300 else 0.0
+    return dx * scale, dy * scale, dz * scale
+
+
+@compiled
+def lift_force(env, body, fraction, velocity):
+    """Lift from the air and from the water, each weighted by the part of the sphere in it."""
+    vx, vy, vz = velocity
+    ax, ay, az = medium_lift(env[3], 1.0 - fraction, body, vx - env[4], vy - env[5], vz - env[6])
+    wx, wy, wz = medium_lift(env[7], fraction, body, vx - env[8], vy - env[9], vz - env[10])
+    return ax + wx, ay + wy, az + wz
+
+
+@compiled
+def inertia(listed, env, body, fraction):
+    """kg that resists acceleration: the mass, plus added mass when listed."""
+    if listed[4]:
+        return body[0] + added_mass(env, body, fraction)
+    return body[0]
+
+
+@compiled
+def explicit_force(listed, env, body, velocity, fraction):
+    """Every listed force but drag, plus the external force, N: what the default integrator
+    takes explicitly."""
+    fx, fy, fz = body[10], body[11], body[12]
+    if listed[0]:
+        gx, gy, gz = gravity_force(env, body)
+        fx, fy, fz = fx + gx, fy + gy, fz + gz
+    if listed[1]:
+        bx, by, bz = buoyancy_force(env, body, fraction)
+        fx, fy, fz = fx + bx, fy + by, fz + bz
+    if listed[3]:
+        lx, ly, lz = lift_force(env, body, fraction, velocity)
+        fx, fy, fz = fx + lx, fy + ly, fz + lz
+    return fx, fy, fz
+
+
+@compiled
+def acceleration(listed, env, body, position, velocity):
+    """m/s^2 of every listed smooth force and the external force: what the explicit
+    integrators step."""
+    fraction = water_fraction(listed, env, body, position[2])
+    fx, fy, fz = explicit_force(listed, env, body, velocity, fraction)
+    if listed[2]:
+        factor_air, factor_water = drag_factors(env, body, fraction)
+        dx, dy, dz = drag_force(env, factor_air, factor_water, velocity)
+        fx, fy, fz = fx + dx, fy + dy, fz + dz
+    resisting = inertia(listed, env, body, fraction)
+    return fx / resisting, fy / resisting, fz / resisting
+
+
+@compiled
+def buoyancy_stiffness(cap, env, body, z, predicted_z):
+    """N/m: buoyancy's restoring stiffness -dF_z/dz over a step, never negative.
+
+    The larger of the slope at the step's start and the secant slope from there to
+    predicted_z (m, where z would end without the spring), which is held to the waterline
+    band: the slope is non-zero only while a sphere crosses the surface, so a step from
+    fully under (or above) the water that would cross the band would otherwise feel no
+    spring at all.
     """
-
-    def __init__(self, env, effects, submerged_volume='cap'):
-        unknown = set(effects) - set(EFFECTS)
-        if unknown:
-            raise ValueError(f'effects: unknown {sorted(unknown)}; allowed: {list(EFFECTS)}')
-        self.env = env
-        self.effects = tuple(effects)
-        self.explicit_forces = [fn for name, fn in (('gravity', gravity_force),
-                                                    ('buoyancy', buoyancy_force),
-                                                    ('lift', lift_force)) if name in effects]
-        self.has_drag = 'drag' in effects
-        self.has_added_mass = 'added_mass' in effects
-        self.has_buoyancy = 'buoyancy' in effects
-        self.needs_water_fraction = bool(_NEEDS_WATER_FRACTION & set(effects))
-        self.fraction_of = {'cap': cap_fraction, 'linear': linear_fraction}[submerged_volume]
-        self.fraction_slope_of = {'cap': cap_fraction_slope,
-                                  'linear': linear_fraction_slope}[submerged_volume]
-        self.submerged_volume = submerged_volume
-
-    def water_fraction(self, spheres, position):
-        """(n,) fraction of each sphere under water, or None when no effect needs it."""
-        if not self.needs_water_fraction:
-            return None
-        return self.fraction_of(position[2], spheres.radius, self.env.surface_z)
-
-    def inertia(self, spheres, water_fraction):
-        """(n,) kg that resists acceleration: the mass, plus added mass when listed."""
-        if self.has_added_mass:
-            return spheres.mass + added_mass(self.env, spheres, water_fraction)
-        return spheres.mass
-
-    def explicit_force(self, spheres, position, velocity, water_fraction):
-        """(3, n) N: every listed force except drag, plus the external force."""
-        force = spheres.external_force.copy()
-        for add_force in self.explicit_forces:
-            add_force(self.env, spheres, position, velocity, water_fraction, force)
-        return force
-
-    def drag_gains(self, spheres, velocity, water_fraction):
-        """(gain_air, gain_water) kg/s, or None when drag is not listed."""
-        factors = self.drag_factors(spheres, water_fraction)
-        return None if factors is None else drag_gains(self.env, factors, velocity)
-
-    def drag_factors(self, spheres, water_fraction):
-        """(factor_air, factor_water) kg/m, or None when drag is not listed."""
-        if not self.has_drag:
-            return None
-        return drag_factors(self.env, spheres, water_fraction)
-
-    def drag_force(self, gains, velocity):
-        gain_air, gain_water = gains
-        return -(gain_air * (velocity - self.env.air.flow_velocity[:, None])
-                 + gain_water * (velocity - self.env.water.flow_velocity[:, None]))
-
-    def vertical_stiffness(self, spheres, position, predicted_z):
-        """(n,) N/m: buoyancy's restoring stiffness -dF_z/dz over a step, clipped at 0.
-
-        The larger of the slope at the step's start and the secant slope from there to
-        predicted_z (m, where z would end without the spring, held to the waterline band).
-        The slope is non-zero only
-        while a sphere crosses the surface, so a step from fully under (or above) the water
-        that would cross the waterline band would otherwise feel no spring at all.
-        """
-        if not self.has_buoyancy:
-            return None
-        radius, surface_z = spheres.radius, self.env.surface_z
-        if self.submerged_volume == 'cap':
-            dvolume_dz = -waterline_area(position[2], radius, surface_z)
-        else:
-            crossing = np.abs(position[2] - surface_z) < radius
-            dvolume_dz = -np.where(crossing, spheres.volume / (2.0 * radius), 0.0)
-        predicted_z = np.clip(predicted_z, surface_z - radius, surface_z + radius)
-        secant = -spheres.volume * self.fraction_slope_of(position[2], predicted_z, radius,
-                                                          surface_z)
-        spring_per_volume_slope = self.env.gravity[2] * (self.env.water.density
-                                                         - self.env.air.density)
-        return np.maximum(np.maximum(spring_per_volume_slope * dvolume_dz,
-                                     spring_per_volume_slope * secant), 0.0)
-
-    def acceleration(self, spheres, position, velocity):
-        """(3, n) m/s^2 of the smooth forces: what the explicit integrators step."""
-        water_fraction = self.water_fraction(spheres, position)
-        force = self.explicit_force(spheres, position, velocity, water_fraction)
-        gains = self.drag_gains(spheres, velocity, water_fraction)
-        if gains is not None:
-            force += self.drag_force(gains, velocity)
-        return force / self.inertia(spheres, water_fraction)
+    radius, volume, surface_z = body[1], body[2], env[11]
+    spring_per_volume_slope = -env[2] * (env[7] - env[3])
+    predicted_z = min(max(predicted_z, surface_z - radius), surface_z + radius)
+    at_start = spring_per_volume_slope * waterline_volume_slope(cap, z, radius, volume,
+                                                                surface_z)
+    secant = spring_per_volume_slope * volume * submerged_fraction_slope(
+        cap, z, predicted_z, radius, surface_z)
+    stiffness = secant if secant > at_start else at_start
+    return stiffness if stiffness > 0.0 else 0.0

@@ -1,105 +1,136 @@
-"""Fixed-step integrators of the smooth dynamics, interchangeable by name.
+"""Fixed-step integrators of the smooth dynamics, one compiled function each, by name.
 
-Each is `advance(dynamics, spheres, position, velocity, dt) -> (position, velocity)`: a pure
-function of (3, n) arrays in m and m/s; contacts are resolved afterwards, outside them.
+Each is `integrator(listed, env, body, position, velocity, dt)` for one sphere (see
+effects.py for the arguments; position and velocity 3-tuples, m and m/s) and returns the
+state a step of dt seconds later as one flat tuple (x, y, z, vx, vy, vz). Contacts are
+resolved afterwards, outside them. The explicit ones see the forces only through
+`acceleration`, which the stability analysis replaces by a linear spring (stability.py).
 """
-import numpy as np
+import math
 
-from .effects import drag_gains
+from .effects import acceleration, buoyancy_stiffness, drag_factors, explicit_force, \
+    inertia, water_fraction
+from .media import compiled
 
 
-def explicit_euler(dynamics, spheres, position, velocity, dt):
+@compiled
+def _plus(vector, scale, rate):
+    """vector + scale * rate, for 3-tuples."""
+    return (vector[0] + scale * rate[0], vector[1] + scale * rate[1],
+            vector[2] + scale * rate[2])
+
+
+@compiled
+def _state(position, velocity):
+    return position[0], position[1], position[2], velocity[0], velocity[1], velocity[2]
+
+
+@compiled
+def explicit_euler(listed, env, body, position, velocity, dt):
     """Forward Euler: first order, unstable for stiff drag or a stiff float."""
-    acceleration = dynamics.acceleration(spheres, position, velocity)
-    return position + dt * velocity, velocity + dt * acceleration
+    rate = acceleration(listed, env, body, position, velocity)
+    return _state(_plus(position, dt, velocity), _plus(velocity, dt, rate))
 
 
-def semi_implicit_euler(dynamics, spheres, position, velocity, dt):
+@compiled
+def semi_implicit_euler(listed, env, body, position, velocity, dt):
     """The seed's: new velocity first, then position with the new velocity (symplectic)."""
-    new_velocity = velocity + dt * dynamics.acceleration(spheres, position, velocity)
-    return position + dt * new_velocity, new_velocity
+    new_velocity = _plus(velocity, dt, acceleration(listed, env, body, position, velocity))
+    return _state(_plus(position, dt, new_velocity), new_velocity)
 
 
-def velocity_verlet(dynamics, spheres, position, velocity, dt):
+@compiled
+def velocity_verlet(listed, env, body, position, velocity, dt):
     """Second order; the end-of-step force sees a predicted velocity, so drag stays 2nd order."""
-    acceleration = dynamics.acceleration(spheres, position, velocity)
-    new_position = position + dt * velocity + 0.5 * dt * dt * acceleration
-    predicted_velocity = velocity + dt * acceleration
-    new_acceleration = dynamics.acceleration(spheres, new_position, predicted_velocity)
-    return new_position, velocity + 0.5 * dt * (acceleration + new_acceleration)
+    rate = acceleration(listed, env, body, position, velocity)
+    new_position = _plus(_plus(position, dt, velocity), 0.5 * dt * dt, rate)
+    predicted_velocity = _plus(velocity, dt, rate)
+    new_rate = acceleration(listed, env, body, new_position, predicted_velocity)
+    mean_rate = (rate[0] + new_rate[0], rate[1] + new_rate[1], rate[2] + new_rate[2])
+    return _state(new_position, _plus(velocity, 0.5 * dt, mean_rate))
 
 
-def rk4(dynamics, spheres, position, velocity, dt):
+@compiled
+def _rk4_sum(start, k1, k2, k3, k4, dt):
+    sixth = dt / 6.0
+    return (start[0] + sixth * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
+            start[1] + sixth * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
+            start[2] + sixth * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]))
+
+
+@compiled
+def rk4(listed, env, body, position, velocity, dt):
     """Classical fourth-order Runge-Kutta on (position, velocity)."""
-    def rate(x, v):
-        return v, dynamics.acceleration(spheres, x, v)
-    k1x, k1v = rate(position, velocity)
-    k2x, k2v = rate(position + 0.5 * dt * k1x, velocity + 0.5 * dt * k1v)
-    k3x, k3v = rate(position + 0.5 * dt * k2x, velocity + 0.5 * dt * k2v)
-    k4x, k4v = rate(position + dt * k3x, velocity + dt * k3v)
-    return (position + dt / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x),
-            velocity + dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v))
+    a1 = acceleration(listed, env, body, position, velocity)
+    x2, v2 = _plus(position, 0.5 * dt, velocity), _plus(velocity, 0.5 * dt, a1)
+    a2 = acceleration(listed, env, body, x2, v2)
+    x3, v3 = _plus(position, 0.5 * dt, v2), _plus(velocity, 0.5 * dt, a2)
+    a3 = acceleration(listed, env, body, x3, v3)
+    x4, v4 = _plus(position, dt, v3), _plus(velocity, dt, a3)
+    a4 = acceleration(listed, env, body, x4, v4)
+    return _state(_rk4_sum(position, velocity, v2, v3, v4, dt),
+                  _rk4_sum(velocity, a1, a2, a3, a4, dt))
 
 
-def linearly_implicit_euler(dynamics, spheres, position, velocity, dt):
+@compiled
+def linearly_implicit_euler(listed, env, body, position, velocity, dt):
     """The default: stable at any step for stiff drag, light spheres and a stiff float.
 
     The two stiff parts are taken implicitly and everything else explicitly:
     - quadratic drag as gain * (v_new - flow), the gain taken at the larger of the current
       relative speed and the speed the step will end with (the closed-form root of
       m*s + dt*c*s^2 = |m*v_rel + dt*F|), so a sphere starting from rest is damped too;
-    - the buoyancy spring k at the waterline (the larger of its slope at the start and its
-      secant slope to where z would end without it, so a step that would jump the
-      waterline band feels it) with a theta-method whose weight w blends from
-      the trapezoidal rule (w = 1/2: no damping, second order) when the spring is resolved
-      to backward Euler (w = 1: L-stable) when it is not: w = 1/2 + h^2 / (2*(4 + h^2)),
-      h = omega*dt, omega^2 = k/m. Below h = 0.3 it damps the float by < 0.04*omega*h^2
-      per second; at h = 6.7 it cuts the stiff mode to 0.16 per step.
+    - the buoyancy spring k at the waterline (effects.buoyancy_stiffness) with a
+      theta-method whose weight w blends from the trapezoidal rule (w = 1/2: no damping,
+      second order) when the spring is resolved to backward Euler (w = 1: L-stable) when it
+      is not: w = 1/2 + h^2 / (2*(4 + h^2)), h = omega*dt, omega^2 = k/m. Below h = 0.3 it
+      damps the float by < 0.04*omega*h^2 per second; at h = 6.7 it cuts the stiff mode to
+      0.16 per step.
     Positions advance with the mean velocity (weight w on z where the spring acts).
     Solving for v_new is a division per sphere:
         (m + dt*gain + w^2*dt^2*k) v_new = m*v + dt*(F + gain*flow) - w*(1-w)*dt^2*k*v
     Fixed points are exact: terminal velocity and floating draft carry no step error.
     First order with drag, second order for gravity and the float.
     """
-    env = dynamics.env
-    water_fraction = dynamics.water_fraction(spheres, position)
-    inertia = dynamics.inertia(spheres, water_fraction)
-    force = dynamics.explicit_force(spheres, position, velocity, water_fraction)
-    momentum = inertia * velocity + dt * force
-    denominator = np.broadcast_to(inertia, (3, spheres.count)).copy()
-    factors = dynamics.drag_factors(spheres, water_fraction)
-    if factors is not None:
-        factor_air, factor_water = factors
-        flow_air = env.air.flow_velocity[:, None]
-        flow_water = env.water.flow_velocity[:, None]
+    x, y, z = position
+    vx, vy, vz = velocity
+    fraction = water_fraction(listed, env, body, z)
+    m = inertia(listed, env, body, fraction)
+    fx, fy, fz = explicit_force(listed, env, body, velocity, fraction)
+    px, py, pz = m * vx + dt * fx, m * vy + dt * fy, m * vz + dt * fz
+    horizontal = m  # the solve's divisor for x and y; z's gains the spring's part too
+    if listed[2]:
+        factor_air, factor_water = drag_factors(env, body, fraction)
+        wx, wy, wz, cx, cy, cz = env[4], env[5], env[6], env[8], env[9], env[10]
         total = factor_air + factor_water
-        mean_flow = (factor_air * flow_air + factor_water * flow_water) / np.where(
-            total > 0.0, total, 1.0)
-        relative_momentum = inertia * (velocity - mean_flow) + dt * force
-        pushed = np.sqrt(np.einsum('ij,ij->j', relative_momentum, relative_momentum))
-        end_speed = 2.0 * pushed / (inertia + np.sqrt(inertia * inertia
-                                                      + 4.0 * dt * total * pushed))
-        for factor, gain, flow in zip(factors, drag_gains(env, factors, velocity),
-                                      (flow_air, flow_water)):
-            gain = np.maximum(gain, factor * end_speed)  # factor * max(|v_rel|, end speed)
-            momentum += dt * gain * flow
-            denominator += dt * gain
-    stiffness = None
-    if dynamics.has_buoyancy:
-        predicted_z = position[2] + 0.5 * dt * (velocity[2] + momentum[2] / denominator[2])
-        stiffness = dynamics.vertical_stiffness(spheres, position, predicted_z)
+        divisor = total if total > 0.0 else 1.0
+        mx = (factor_air * wx + factor_water * cx) / divisor
+        my = (factor_air * wy + factor_water * cy) / divisor
+        mz = (factor_air * wz + factor_water * cz) / divisor
+        rx, ry, rz = m * (vx - mx) + dt * fx, m * (vy - my) + dt * fy, m * (vz - mz) + dt * fz
+        pushed = math.sqrt(rx * rx + ry * ry + rz * rz)
+        end_speed = 2.0 * pushed / (m + math.sqrt(m * m + 4.0 * dt * total * pushed))
+        speed_air = math.sqrt((vx - wx) ** 2 + (vy - wy) ** 2 + (vz - wz) ** 2)
+        speed_water = math.sqrt((vx - cx) ** 2 + (vy - cy) ** 2 + (vz - cz) ** 2)
+        gain_air = factor_air * (speed_air if speed_air > end_speed else end_speed)
+        gain_water = factor_water * (speed_water if speed_water > end_speed else end_speed)
+        px += dt * (gain_air * wx + gain_water * cx)
+        py += dt * (gain_air * wy + gain_water * cy)
+        pz += dt * (gain_air * wz + gain_water * cz)
+        horizontal += dt * (gain_air + gain_water)
+    vertical = horizontal
     weight = 0.5
-    if stiffness is not None:
-        spring = dt * dt * stiffness  # (omega*dt)^2 * m
-        h_squared = spring / inertia
+    inverse_horizontal = 1.0 / horizontal
+    if listed[1]:
+        predicted_z = z + 0.5 * dt * (vz + pz * inverse_horizontal)
+        spring = dt * dt * buoyancy_stiffness(listed[5], env, body, z, predicted_z)
+        h_squared = spring / m
         weight = 0.5 + 0.5 * h_squared / (4.0 + h_squared)
-        momentum[2] -= weight * (1.0 - weight) * spring * velocity[2]
-        denominator[2] += weight * weight * spring
-    new_velocity = momentum / denominator
-    new_position = position + 0.5 * dt * (velocity + new_velocity)
-    if stiffness is not None:
-        new_position[2] += (weight - 0.5) * dt * (new_velocity[2] - velocity[2])
-    return new_position, new_velocity
+        pz -= weight * (1.0 - weight) * spring * vz
+        vertical += weight * weight * spring
+    nvx, nvy, nvz = px * inverse_horizontal, py * inverse_horizontal, pz / vertical
+    return (x + 0.5 * dt * (vx + nvx), y + 0.5 * dt * (vy + nvy),
+            z + 0.5 * dt * (vz + nvz) + (weight - 0.5) * dt * (nvz - vz), nvx, nvy, nvz)
 
 
 INTEGRATORS = {
@@ -110,3 +141,6 @@ INTEGRATORS = {
     'linearly_implicit_euler': linearly_implicit_euler,
 }
 DEFAULT_INTEGRATOR = 'linearly_implicit_euler'
+# How many times each evaluates the forces in a step.
+FORCE_EVALUATIONS = {'explicit_euler': 1, 'semi_implicit_euler': 1, 'velocity_verlet': 2,
+                     'rk4': 4, 'linearly_implicit_euler': 1}

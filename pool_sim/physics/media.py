@@ -2,9 +2,13 @@
 
 Air fills z > surface_z and water z < surface_z. How much of a sphere is in each is the
 exact spherical cap below the surface (or, for comparison only, the linear approximation).
+The per-sphere geometry the step uses is compiled (numba); the volume integrals, which only
+the energy diagnostics need, are numpy.
 """
 from dataclasses import dataclass, field
+import math
 
+import numba
 import numpy as np
 
 
@@ -45,54 +49,59 @@ class Environment:
     pool: Pool
 
 
-def submerged_depth(z, radius, surface_z):
-    """Height of the sphere's part below the surface, clipped to [0, 2r] (m)."""
-    return np.clip(surface_z - (z - radius), 0.0, 2.0 * radius)
+def compiled(function):
+    """A per-sphere scalar function, compiled by numba and inlined wherever it is called, so
+    the step a scene composes from these is one loop body the compiler can specialise."""
+    return numba.njit(forceinline=True, error_model='numpy')(function)
 
 
-def cap_fraction(z, radius, surface_z):
-    """Exact fraction of a sphere's volume below the surface.
+@compiled
+def submerged_fraction(cap, z, radius, surface_z):
+    """Fraction of a sphere's volume below the surface.
 
-    The cap of height h holds pi*h^2*(3r - h)/3 of the sphere's 4*pi*r^3/3.
+    cap (True): the exact spherical cap: the cap of height h holds pi*h^2*(3r - h)/3 of the
+    sphere's 4*pi*r^3/3. False: the seed's approximation, depth / diameter (for comparison).
     """
-    h_over_r = submerged_depth(z, radius, surface_z) / radius
-    return 0.25 * h_over_r * h_over_r * (3.0 - h_over_r)
+    depth = surface_z - (z - radius)
+    depth = 0.0 if depth < 0.0 else depth
+    depth = 2.0 * radius if depth > 2.0 * radius else depth
+    h = depth / radius
+    if cap:
+        return 0.25 * h * h * (3.0 - h)
+    return 0.5 * h
 
 
-def _secant_terms(z_from, z_to, radius, surface_z):
-    """(h1, h2, share): h = submerged depth / r at both heights, held to [0, 2], and the
-    share of the way from z_from to z_to that lies in the waterline band (1 where equal)."""
-    h1 = np.clip((surface_z - z_from) / radius + 1.0, 0.0, 2.0)
-    h2 = np.clip((surface_z - z_to) / radius + 1.0, 0.0, 2.0)
-    travel = z_to - z_from
-    moving = travel != 0.0
-    share = np.divide((h1 - h2) * radius, travel, out=np.ones_like(h1), where=moving)
-    return h1, h2, share
-
-
-def cap_fraction_slope(z_from, z_to, radius, surface_z):
-    """-(change of cap_fraction) / (change of z) from z_from to z_to, 1/m: the secant
+@compiled
+def submerged_fraction_slope(cap, z_from, z_to, radius, surface_z):
+    """-(change of submerged_fraction) / (change of z) from z_from to z_to, 1/m: the secant
     slope, and at z_from == z_to the slope itself.
 
-    In h the fraction is the cubic h^2 (3 - h) / 4, whose divided difference
-    (3 (h1 + h2) - (h1^2 + h1 h2 + h2^2)) / 4 needs no division by h2 - h1, so there is no
-    cancellation however close the heights; beyond the band the fraction does not change,
-    which the share of the way inside the band accounts for.
+    In h = depth / r the cap's fraction is the cubic h^2 (3 - h) / 4, whose divided
+    difference (3 (h1 + h2) - (h1^2 + h1 h2 + h2^2)) / 4 needs no division by h2 - h1, so
+    there is no cancellation however close the heights; the linear model's is 1/2. Beyond
+    the waterline band the fraction does not change, which the share of the way from z_from
+    to z_to inside the band accounts for.
     """
-    h1, h2, share = _secant_terms(z_from, z_to, radius, surface_z)
-    return 0.25 * (3.0 * (h1 + h2) - (h1 * h1 + h1 * h2 + h2 * h2)) / radius * share
+    h1 = min(max((surface_z - z_from) / radius + 1.0, 0.0), 2.0)
+    h2 = min(max((surface_z - z_to) / radius + 1.0, 0.0), 2.0)
+    travel = z_to - z_from
+    share = (h1 - h2) * radius / (travel if travel != 0.0 else 1.0)
+    share = share if travel != 0.0 else 1.0
+    if cap:
+        return 0.25 * (3.0 * (h1 + h2) - (h1 * h1 + h1 * h2 + h2 * h2)) / radius * share
+    in_band = h1 != h2 or (h1 > 0.0 and h1 < 2.0)
+    return 0.5 / radius * share if in_band else 0.0
 
 
-def linear_fraction_slope(z_from, z_to, radius, surface_z):
-    """As cap_fraction_slope for linear_fraction (slope 1/(2r) within the band)."""
-    h1, h2, share = _secant_terms(z_from, z_to, radius, surface_z)
-    in_band = (h1 != h2) | ((h1 > 0.0) & (h1 < 2.0))
-    return np.where(in_band, 0.5 / radius * share, 0.0)
-
-
-def linear_fraction(z, radius, surface_z):
-    """The seed's approximation: fraction = depth / diameter. Kept only for comparison."""
-    return submerged_depth(z, radius, surface_z) / (2.0 * radius)
+@compiled
+def waterline_volume_slope(cap, z, radius, volume, surface_z):
+    """-dV_sub/dz at z, m^2: the area of the sphere's section at the surface (exact cap), or
+    V/(2r) while the linear model's sphere crosses the surface; 0 when it does not."""
+    offset = z - surface_z
+    if cap:
+        reach = radius * radius - offset * offset
+        return math.pi * (reach if reach > 0.0 else 0.0)
+    return volume / (2.0 * radius) if abs(offset) < radius else 0.0
 
 
 def cap_volume_integral(z, radius, surface_z):
@@ -116,9 +125,3 @@ def linear_volume_integral(z, radius, surface_z):
     under = np.maximum(full_depth - 2.0 * radius, 0.0)
     volume = 4.0 / 3.0 * np.pi * radius**3
     return volume * h * h / (4.0 * radius) + volume * under
-
-
-def waterline_area(z, radius, surface_z):
-    """Area of the sphere's cross-section at the water surface, m^2 (0 when not crossing it)."""
-    offset = z - surface_z
-    return np.pi * np.maximum(radius * radius - offset * offset, 0.0)

@@ -5,17 +5,15 @@ writes, so a refused input leaves the state exactly as it was.
 """
 import dataclasses
 import math
+import time
 
 import numpy as np
 
-from . import fused
-from .contact import resolve_contacts
-from .effects import Dynamics
-from .integrators import INTEGRATORS
-from .scene import LOCKSTEP_KEYS
 from .media import cap_volume_integral, linear_volume_integral
+from .scene import LOCKSTEP_KEYS
 from .spheres import InvalidInput, shown
 from .stability import stable_step_bound
+from .stepper import environment_array, Stepper
 
 VOLUME_INTEGRALS = {'cap': cap_volume_integral, 'linear': linear_volume_integral}
 
@@ -26,7 +24,8 @@ class Simulation:
 
     time: simulated seconds since the start or the last reset.
     max_step: the configured step, s (1 / physics_rate_hz); no step is ever longer.
-    recoveries: spheres the step guard has put back since construction (reset keeps it).
+    recoveries: times the step guard has put a sphere back since construction (reset keeps
+    it).
 
     The step guard is the last line of defence: a sphere a step would leave non-finite (or,
     with contact, outside the pool) goes back to where that step began, at rest.
@@ -35,32 +34,25 @@ class Simulation:
     change_spheres spawns, removes and reorders spheres while it runs.
     """
 
-    def __init__(self, scene, submerged_volume='cap', initial_spheres=None, backend='auto'):
+    def __init__(self, scene, submerged_volume='cap', initial_spheres=None):
         self.scene = scene
         self.initial_spheres = initial_spheres
         self.environment = scene.environment()
         self.contact_parameters = scene.contact_parameters()
-        self.dynamics = Dynamics(self.environment, scene['effects'], submerged_volume)
-        self.integrator = INTEGRATORS[scene['integrator']]
+        if submerged_volume not in VOLUME_INTEGRALS:
+            raise InvalidInput("submerged_volume: 'cap' or 'linear', got "
+                               f'{shown(submerged_volume)}')
+        self.submerged_volume = submerged_volume
+        self.stepper = Stepper(scene['integrator'], scene['effects'], submerged_volume)
         self.max_step = 1.0 / scene['physics_rate_hz']
-        self.has_contact = 'contact' in scene['effects']
-        self.has_friction = 'friction' in scene['effects']
-        if backend not in ('auto', 'numpy', 'fused'):
-            raise InvalidInput(f"backend: one of 'auto', 'numpy', 'fused', got {backend!r}")
-        fusable = fused.supports(scene, submerged_volume)
-        if backend == 'fused' and not fusable:
-            raise InvalidInput('backend: the fused kernel needs numba, the default integrator, '
-                               f'the exact cap and effects within {sorted(fused.FUSED_EFFECTS)}')
-        # 'auto' takes the compiled loop where it computes the same thing, numpy elsewhere.
-        self.backend = 'fused' if fusable and backend != 'numpy' else 'numpy'
-        self.fused_scratch = None  # start-of-step state and failure flags, kept between steps
         self.recoveries = 0
         self._recovered = set()  # indices put back, until taken
         self._failed_step = {}  # index -> the last step (s) it was put back in
-        # The kernel takes ContactParameters as a tuple, in its field order.
-        self.contact_tuple = dataclasses.astuple(self.contact_parameters)
-        self.effect_flags = tuple(name in scene['effects'] for name in (
-            'gravity', 'buoyancy', 'drag', 'contact', 'friction'))
+        self._scratch = None  # start-of-step state and failure flags, kept between calls
+        pool = self.environment.pool
+        self._constants = (environment_array(self.environment),
+                           np.concatenate([pool.corner_min, pool.corner_max]).astype(float),
+                           np.array(dataclasses.astuple(self.contact_parameters), dtype=float))
         self.reset()
 
     def reset(self):
@@ -71,40 +63,40 @@ class Simulation:
 
     def step(self, dt=None):
         """One step of dt seconds (default: max_step)."""
-        dt = self.max_step if dt is None else dt
-        if self.backend == 'fused':
-            self._count_recovered(fused.step(self, dt), dt)
-            self.time += dt
-            return
-        spheres = self.spheres
-        old_position, old_velocity = spheres.position, spheres.velocity
-        with np.errstate(over='ignore', invalid='ignore'):  # the guard below catches those
-            position, velocity = self.integrator(
-                self.dynamics, spheres, old_position, old_velocity, dt)
-            if self.has_contact:
-                resolve_contacts(self.environment.pool, self.contact_parameters,
-                                 spheres.radius, old_position, old_velocity, position,
-                                 velocity, dt, self.has_friction)
-        good = np.isfinite(velocity)
-        if self.has_contact:  # NaN is not inside either
-            pool = self.environment.pool
-            good &= ((position >= pool.corner_min[:, None] + spheres.radius)
-                     & (position <= pool.corner_max[:, None] - spheres.radius))
-        else:
-            good &= np.isfinite(position)
-        failed = np.flatnonzero(~good.all(axis=0))
-        if failed.size:
-            position[:, failed] = old_position[:, failed]
-            velocity[:, failed] = 0.0
-            self._count_recovered(failed, dt)
-        spheres.position, spheres.velocity = position, velocity
-        self.time += dt
+        self.run(1, self.max_step if dt is None else dt)
 
-    def _count_recovered(self, indices, dt):
+    def run(self, steps, dt):
+        """`steps` steps of dt seconds each, in one compiled call."""
+        spheres = self.spheres
+        if self._scratch is None or self._scratch[0].shape != spheres.position.shape:
+            self._scratch = (np.empty_like(spheres.position), np.empty_like(spheres.velocity),
+                             np.zeros(spheres.count, dtype=np.uint8))
+        arrays = (spheres.position, spheres.velocity, spheres.mass, spheres.radius,
+                  spheres.volume, spheres.cross_section, spheres.drag_coefficient,
+                  spheres.lift_coefficient, spheres.lift_area, spheres.lift_normal,
+                  spheres.external_force, *self._constants)
+        put_back = self.stepper.run(arrays, self._scratch, int(steps), float(dt))
+        if put_back:
+            failed = self._scratch[2]
+            indices = np.flatnonzero(failed)
+            failed[indices] = 0
+            self._count_recovered(indices, dt, put_back)
+        self.time += steps * dt
+
+    def prepare(self):
+        """Compile the step this many spheres take (or load it from numba's cache) without
+        stepping; returns the wall seconds that took (next to none once done)."""
+        started = time.perf_counter()
+        self.run(0, self.max_step)
+        return time.perf_counter() - started
+
+    def _count_recovered(self, indices, dt, put_back):
+        """indices: the spheres put back in a call; put_back: how many times (a sphere may
+        be put back in several of its steps)."""
         for index in indices.tolist():
             self._recovered.add(index)
             self._failed_step[index] = dt
-        self.recoveries += len(indices)
+        self.recoveries += put_back
 
     def take_recovered(self):
         """Indices of the spheres the step guard put back since the last call, ascending."""
@@ -130,8 +122,8 @@ class Simulation:
         if not math.isfinite(duration) or duration < 0.0:
             raise InvalidInput(f'duration: must be finite and >= 0, got {duration!r}')
         steps = math.ceil(duration / self.max_step - 1e-9)
-        for _ in range(steps):
-            self.step(duration / steps)
+        if steps:
+            self.run(steps, duration / steps)
 
     def set_mass(self, name, mass_kg):
         self.spheres.set_mass(name, mass_kg)
@@ -167,7 +159,6 @@ class Simulation:
         self._failed_step = {new_index[old_names[i]]: step
                              for i, step in self._failed_step.items()
                              if old_names[i] in new_index}
-        self.fused_scratch = None  # sized for the old count
         self.scene, self.initial_spheres, self.spheres = scene, None, spheres
 
     def sphere_state(self, name):
@@ -183,7 +174,7 @@ class Simulation:
         the sphere alone, which the fluid's inertia can only take from.
         """
         return mechanical_energy(self.environment, self.spheres, 'buoyancy' in self.scene[
-            'effects'], 'gravity' in self.scene['effects'], self.dynamics.submerged_volume)
+            'effects'], 'gravity' in self.scene['effects'], self.submerged_volume)
 
 
 def mechanical_energy(env, spheres, with_buoyancy=True, with_gravity=True,

@@ -4,16 +4,20 @@ Near the waterline a sphere is a damped spring: z'' = -omega^2 z - lambda z', wi
 omega^2 = (rho_w - rho_a)*|g|*pi*r^2 / m_eff (the waterline spring at its stiffest) and
 lambda = rho_w*C_d*pi*r^2*|v| / m_eff (quadratic drag linearised at a speed |v| it will
 reach). One step of an integrator maps (z, z') linearly; it is stable while that map's
-spectral radius stays <= 1. The map is found by running the integrator itself on the linear
-system, so the bound cannot drift from the implementation.
+spectral radius stays <= 1. The map is found by running the integrator itself, compiled with
+a linear spring where it calls the forces, so the bound cannot drift from the implementation.
 
 linearly_implicit_euler takes both stiff parts implicitly and has no bound.
 """
 import math
+import types
 
+import numba
 import numpy as np
 
 from .integrators import INTEGRATORS
+from .media import compiled
+from .stepper import SOURCE_DIGEST
 
 UNCONDITIONALLY_STABLE = frozenset({'linearly_implicit_euler'})
 
@@ -54,33 +58,65 @@ def sphere_stiffness(scene, spheres=None, indices=None):
     return omega_sq, drag_rate
 
 
-class _LinearSpring:
-    """Stands in for Dynamics: acceleration = -omega^2 * z - drag_rate * z' on the z row."""
+@compiled
+def linear_spring(listed, env, body, position, velocity):
+    """Stands in for effects.acceleration: -omega^2 * x - drag_rate * x' on each axis, with
+    body = (omega_sq, drag_rate)."""
+    omega_sq, drag_rate = body
+    return (-omega_sq * position[0] - drag_rate * velocity[0],
+            -omega_sq * position[1] - drag_rate * velocity[1],
+            -omega_sq * position[2] - drag_rate * velocity[2])
 
-    def __init__(self, omega_sq, drag_rate):
-        self.omega_sq, self.drag_rate = omega_sq, drag_rate
 
-    def acceleration(self, spheres, position, velocity):
-        return -self.omega_sq * position - self.drag_rate * velocity
+integrate_on_spring = None  # each compiled copy of the template below has its own
+
+
+def _step_maps_template(omega_sq, drag_rate, dt):
+    """(n, 2, 2): the step map of `integrate_on_spring` (a global of each compiled copy)
+    on each linearised sphere, its columns the steps from (1, 0) and (0, 1)."""
+    maps = np.empty((omega_sq.shape[0], 2, 2))
+    for i in range(omega_sq.shape[0]):
+        body = (omega_sq[i], drag_rate[i])
+        for column in range(2):
+            start = 1.0 if column == 0 else 0.0
+            s = integrate_on_spring((), (), body, (start, 0.0, 0.0), (1.0 - start, 0.0, 0.0),
+                                    dt)
+            maps[i, 0, column], maps[i, 1, column] = s[0], s[3]
+    return maps
+
+
+def _renamed(function, name, replaced_globals):
+    """function's code under another name (numba's cache tells functions apart by name)
+    and with some of its globals replaced."""
+    copy = types.FunctionType(function.__code__, {**function.__globals__, **replaced_globals},
+                              name)
+    copy.__qualname__ = name
+    return copy
+
+
+def _step_maps_of(name):
+    """The compiled (omega_sq (n,), drag_rate (n,), dt) -> (n, 2, 2) step maps of one
+    integrator: its own code, with the linear spring where it calls acceleration."""
+    suffix = f'on_linear_spring_{SOURCE_DIGEST}'  # own cache entries, new with the sources
+    original = getattr(INTEGRATORS[name], 'py_func', INTEGRATORS[name])  # numba's, or plain
+    on_spring = compiled(_renamed(original, f'{name}_{suffix}',
+                                  {'acceleration': linear_spring}))
+    return numba.njit(cache=True, error_model='numpy')(_renamed(
+        _step_maps_template, f'step_maps_of_{name}_{suffix}',
+        {'integrate_on_spring': on_spring}))
+
+
+_step_maps = {}  # integrator name -> its compiled step_maps, made on first use
 
 
 def spectral_radius(integrator, omega_sq, drag_rate, dt):
     """(n,) spectral radius of one step of `integrator` on each linearised sphere."""
-    count = len(omega_sq)
-    step = INTEGRATORS[integrator]
-    spring = _LinearSpring(omega_sq, drag_rate)
-    columns = []
-    with np.errstate(over='ignore', invalid='ignore'):  # a step that overflows: unstable
-        for start in ((1.0, 0.0), (0.0, 1.0)):
-            position = np.full((1, count), start[0])
-            velocity = np.full((1, count), start[1])
-            new_position, new_velocity = step(spring, None, position, velocity, dt)
-            columns.append((new_position[0], new_velocity[0]))
-    matrices = np.empty((count, 2, 2))
-    for j, (new_position, new_velocity) in enumerate(columns):
-        matrices[:, 0, j], matrices[:, 1, j] = new_position, new_velocity
+    if integrator not in _step_maps:
+        _step_maps[integrator] = _step_maps_of(integrator)
+    matrices = _step_maps[integrator](np.ascontiguousarray(omega_sq, dtype=float),
+                                      np.ascontiguousarray(drag_rate, dtype=float), float(dt))
     finite = np.all(np.isfinite(matrices), axis=(1, 2))
-    radius = np.full(count, np.inf)
+    radius = np.full(len(omega_sq), np.inf)
     if finite.any():
         radius[finite] = np.max(np.abs(np.linalg.eigvals(matrices[finite])), axis=1)
     return radius

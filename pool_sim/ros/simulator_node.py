@@ -38,7 +38,7 @@ from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
-from pool_sim.physics import fused, InvalidInput, Scene, Simulation
+from pool_sim.physics import InvalidInput, Scene, Simulation, stepper
 from pool_sim.physics.scene import check_some_sphere_names, read_params_document, SPHERE_KEYS
 from pool_sim.physics.spheres import named_few, NAMES_SHOWN, RADIUS_RANGE_M
 from pool_sim.physics.stability import stable_at, stable_step_bound
@@ -153,6 +153,7 @@ class PoolSimNode(Node):
         self.next_listener_check, self.odometry_wanted = 0.0, []
         # Counted across resets (which restart simulation time): what the node has done.
         self.publishes, self.steps_taken, self.simulated_s = 0, 0, 0.0
+        self.step_cost_s = None  # wall s per physics step, as the last call took
         # Simulated seconds the catch-up bound let go when the node fell behind.
         self.given_up_s = 0.0
         # True once simulated time reached the last second a ROS stamp holds (then paused).
@@ -161,12 +162,14 @@ class PoolSimNode(Node):
         self.started_wall = time.monotonic()  # both set again once set-up is done
         self.next_status_wall = self.started_wall + STATUS_PERIOD_S
         self.paused_wall_s, self.paused_since = 0.0, None
+        compiling_s = self.simulation.prepare()
         self._publish_scene_markers()
         self._publish_state()
         age = process_age_s()
         if age is not None:
             self.get_logger().info(f'first state published; this process started '
-                                   f'{age:.2f} s ago')
+                                   f'{age:.2f} s ago (the physics step took '
+                                   f'{compiling_s:.2f} s to compile or load from the cache)')
         tick_period = (max(self.simulation.max_step, self.publish_period)
                        / self.real_time_factor if self.real_time_factor > 0 else 0.0)
         self.tick_period = min(max(tick_period, TICK_PERIOD_RANGE_S[0]),
@@ -180,7 +183,7 @@ class PoolSimNode(Node):
             f'{"on" if self.per_sphere else "off"}')
         # Load the compiled kernel on a throwaway copy now, and start the clock after it and
         # after the set-up above: neither is the node falling behind.
-        fused.use_threads(1)
+        stepper.use_threads(1)
         Simulation(scene, initial_spheres=self.simulation.spheres.copy()).step()
         self.last_wall = self.started_wall = time.monotonic()
         self.next_status_wall = self.started_wall + STATUS_PERIOD_S
@@ -227,7 +230,7 @@ class PoolSimNode(Node):
         # The physics loop on one thread, this one (numba's thread count is per calling
         # thread: set here, not where the node was built): the machine's other cores serve
         # DDS, the executor and the subscribers.
-        fused.use_threads(1)
+        stepper.use_threads(1)
         while not self.clock_stop.is_set():
             try:
                 with self.lock:
@@ -284,11 +287,13 @@ class PoolSimNode(Node):
             # the rest owed (then given up at the bound), never a tick that blocks services.
             # In lockstep a publish ends the tick's steps (_step is False then).
             while self.backlog_s >= dt * (1.0 - 1e-9) and time.monotonic() < deadline:
-                self.backlog_s -= dt
-                if not self._step():
+                owed_steps = max(int(self.backlog_s / dt * (1.0 + 1e-9)), 1)
+                going_on, taken = self._steps(owed_steps, deadline)
+                self.backlog_s -= taken * dt
+                if not going_on:
                     break
         else:
-            while time.monotonic() < deadline and self._step():
+            while time.monotonic() < deadline and self._steps(None, deadline)[0]:
                 pass
         if self.steps_taken > steps_before:
             self._publish_clock()
@@ -306,7 +311,7 @@ class PoolSimNode(Node):
             self.inputs.apply(self.simulation, self.wrench_time)
             publishes = self.publishes
             while self.publishes == publishes:
-                if not self._step() and self.publishes == publishes:
+                if not self._steps(None, None)[0] and self.publishes == publishes:
                     return False  # the end of ROS stamps
             self._publish_clock()
             self._report_recovered()
@@ -351,7 +356,7 @@ class PoolSimNode(Node):
         # keeps the timeouts. A fault is said and the input goes on, as on the clock.
         with self.lock:
             if threading.get_ident() not in self._one_thread:
-                fused.use_threads(1)  # per calling thread, as on the clock thread
+                stepper.use_threads(1)  # per calling thread, as on the clock thread
                 self._one_thread.add(threading.get_ident())
             try:
                 self._on_tick()
@@ -365,31 +370,52 @@ class PoolSimNode(Node):
                                 scene['lockstep_timeout'])
         self.inputs.warn_future = scene['lockstep']
 
-    def _step(self) -> bool:
-        """One physics step (and the publish it is due); False when time cannot go on, or
-        when it published an instant lockstep now waits on."""
+    def _steps(self, limit, deadline):
+        """Physics steps in one compiled call, up to the next publish (and that publish),
+        at most `limit` (None: no limit) and as many as fit before the wall-clock
+        `deadline` (monotonic s; None: no deadline) at the cost measured so far.
+
+        Returns (going_on, steps taken): going_on is False when time cannot go on, or when
+        it published an instant lockstep now waits on."""
         sim = self.simulation
-        if sim.time + sim.max_step > LAST_STAMP_S:
+        dt = sim.max_step
+        if sim.time + dt > LAST_STAMP_S:
             # builtin_interfaces/Time counts seconds in an int32: 68 years of simulated time.
             self._set_paused(True)
             self.stamp_limit_reached = True
             self.get_logger().error(
                 f'simulated time reached {sim.time:.0f} s, the last a ROS time stamp can '
                 'carry (2^31 s): paused; ~/reset starts again from 0')
-            return False
+            return False, 0
         expired_forces(sim, self.wrench_time, self.wrench_timeout)
+        steps = max(math.ceil((self.next_publish_time - 1e-9 - sim.time) / dt), 1)
+        steps = min(steps, int((LAST_STAMP_S - sim.time) / dt))
+        if limit is not None:
+            steps = min(steps, limit)
+        if self.wrench_timeout > 0.0 and self.wrench_time.size:  # none past the first expiry
+            expiry = float(np.min(self.wrench_time)) + self.wrench_timeout
+            if expiry < math.inf:
+                steps = min(steps, max(math.floor((expiry - sim.time) / dt) + 1, 1))
+        if deadline is not None:
+            # At the cost per step of the last call: the first, and one that compiled a
+            # build, take a step alone and the next goes on from their measure.
+            affordable = (1 if self.step_cost_s is None
+                          else (deadline - time.monotonic()) / max(self.step_cost_s, 1e-9))
+            steps = min(steps, max(int(affordable), 1))
         started = time.perf_counter()
-        sim.step()
-        self.time_spent['physics'] += time.perf_counter() - started
-        self.steps_taken += 1
-        self.simulated_s += sim.max_step
+        sim.run(steps, dt)
+        spent = time.perf_counter() - started
+        self.step_cost_s = spent / steps
+        self.time_spent['physics'] += spent
+        self.steps_taken += steps
+        self.simulated_s += steps * dt
         if sim.time >= self.next_publish_time - 1e-9:
             self._publish_state()
             self.next_publish_time += self.publish_period
             if self.next_publish_time <= sim.time:
                 self.next_publish_time = sim.time + self.publish_period
-            return self.lockstep.awaited_ns is None
-        return True
+            return self.lockstep.awaited_ns is None, steps
+        return True, steps
 
     def _publish_scene_markers(self):
         self.scene_marker_publisher.publish(scene_markers(

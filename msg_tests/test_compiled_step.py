@@ -1,0 +1,135 @@
+"""Every integrator, effect set and submerged-volume model runs as one compiled step: it
+follows an independent reference (DOP853 on the model written again in
+benchmarks/reference.py) at the order of its method, its plain and parallel builds agree bit
+for bit, and many steps in one call are those steps one by one."""
+import numpy as np
+import pytest
+
+from benchmarks.reference import smooth_motion
+from pool_sim.physics import INTEGRATORS, Scene, Simulation
+from pool_sim.physics import stepper
+
+SMOOTH = ['gravity', 'buoyancy', 'drag', 'lift', 'added_mass']
+RADIUS, DENSITY = 0.2, 600.0
+SPHERE = {'mass': DENSITY * 4.0 / 3.0 * np.pi * RADIUS**3, 'radius': RADIUS,
+          'drag_coefficient': 0.8, 'lift_coefficient': 0.6, 'lift_area': 0.1,
+          'lift_normal': [0.6, 0.0, 0.8], 'external_force': [3.0, -2.0, 1.0]}
+WORLD = {'gravity': [0.0, 0.0, -9.81], 'air_density': 1.2, 'wind': [2.0, 1.0, 0.0],
+         'water_density': 1000.0, 'current': [-0.5, 0.3, 0.0], 'surface_z': 0.0}
+# Thrown down and sideways from just above the water: it crosses the surface in both media's
+# wind and current, with lift and a push of its own.
+START, START_VELOCITY = [0.0, 0.0, 0.35], [1.0, -0.5, -2.0]
+
+
+def crossing_scene(integrator, effects, rate_hz):
+    return Scene({
+        'sphere_names': ['b'], 'b.mass': SPHERE['mass'], 'b.radius': RADIUS,
+        'b.drag_coefficient': SPHERE['drag_coefficient'],
+        'b.lift_coefficient': SPHERE['lift_coefficient'], 'b.lift_area': SPHERE['lift_area'],
+        'b.lift_normal': SPHERE['lift_normal'], 'b.position': START,
+        'b.velocity': START_VELOCITY, 'gravity': WORLD['gravity'],
+        'air.density': WORLD['air_density'], 'air.wind': WORLD['wind'],
+        'water.density': WORLD['water_density'], 'water.current': WORLD['current'],
+        'effects': list(effects), 'integrator': integrator, 'physics_rate_hz': float(rate_hz)})
+
+
+def largest_error(integrator, effects, submerged_volume, rate_hz):
+    """Largest distance (m) from the reference over 1 s, sampled every 0.1 s."""
+    times = np.arange(1, 11) * 0.1
+    reference = smooth_motion(times, np.array(START), np.array(START_VELOCITY), SPHERE, WORLD,
+                              effects, submerged_volume)
+    sim = Simulation(crossing_scene(integrator, effects, rate_hz), submerged_volume)
+    sim.set_external_force('b', SPHERE['external_force'])
+    errors = []
+    for sample in range(len(times)):
+        sim.advance(0.1)
+        errors.append(np.linalg.norm(sim.spheres.position[:, 0] - reference[:, sample]))
+    return max(errors)
+
+
+# (error bound at 800 Hz in m, the least error ratio from 200 to 800 Hz). RK4 and the
+# linear model's kinks: where a sphere's edge crosses the surface the force's derivative
+# jumps, which costs any method above second order its full order.
+EXPECTED = {'explicit_euler': (5e-3, 3.5), 'semi_implicit_euler': (5e-3, 3.5),
+            'linearly_implicit_euler': (3e-3, 3.5), 'velocity_verlet': (1e-5, 12.0),
+            'rk4': (2e-6, 5.0)}
+
+
+@pytest.mark.parametrize('submerged_volume', ['cap', 'linear'])
+@pytest.mark.parametrize('integrator', list(INTEGRATORS))
+def test_every_integrator_with_every_smooth_effect_follows_the_reference(integrator,
+                                                                          submerged_volume):
+    errors = [largest_error(integrator, SMOOTH, submerged_volume, rate) for rate in (200, 800)]
+    bound, least_ratio = EXPECTED[integrator]
+    assert errors[1] < bound, errors
+    assert errors[0] / errors[1] > least_ratio, errors  # it converges at its order
+
+
+@pytest.mark.parametrize('effects', [[], ['gravity'], ['gravity', 'buoyancy'], ['drag'],
+                                     ['gravity', 'drag', 'lift'],
+                                     ['gravity', 'buoyancy', 'added_mass']],
+                         ids=lambda e: '+'.join(e) or 'nothing')
+def test_each_effect_on_its_own_follows_the_reference(effects):
+    # Lift with drag: without it the sphere speeds up until its velocity swings through the
+    # lifting normal, where lift's direction turns over and DOP853's steps collapse.
+    assert largest_error('rk4', effects, 'cap', 800) < 2e-6
+
+
+def many_spheres(integrator, count, seed=3):
+    """count spheres of every size and density, thrown about a pool with every effect."""
+    rng = np.random.default_rng(seed)
+    names = [f's{i}' for i in range(count)]
+    params = {'sphere_names': names, 'effects': SMOOTH + ['contact', 'friction'],
+              'integrator': integrator,
+              'gravity': list(rng.normal(size=3) * 2.0 + [0.0, 0.0, -9.0]),
+              'air.wind': list(rng.normal(size=3)), 'water.current': list(rng.normal(size=3)),
+              'contact.restitution': 0.6, 'physics_rate_hz': 400.0}
+    for name in names:
+        radius = float(rng.uniform(0.01, 0.5))
+        params[f'{name}.radius'] = radius
+        params[f'{name}.mass'] = float(rng.uniform(100, 9000) * 4 / 3 * np.pi * radius**3)
+        params[f'{name}.position'] = list(rng.uniform(-3.4, 3.4, 3))
+        params[f'{name}.velocity'] = list(rng.normal(size=3) * 5.0)
+        params[f'{name}.lift_coefficient'] = float(rng.uniform(0.0, 0.5))
+        params[f'{name}.lift_normal'] = list(rng.normal(size=3))
+    return Scene(params)
+
+
+@pytest.mark.parametrize('integrator', list(INTEGRATORS))
+def test_the_plain_and_the_parallel_build_agree_bit_for_bit(integrator, monkeypatch):
+    count = 96
+    runs = []
+    for parallel_from in (count, count + 1):  # the parallel build, then the plain one
+        monkeypatch.setattr(stepper, 'parallel_from_spheres', lambda: parallel_from)
+        sim = Simulation(many_spheres(integrator, count))
+        sim.spheres.external_force[:] = np.random.default_rng(1).normal(size=(3, count)) * 20
+        sim.advance(2.0)
+        runs.append((sim.spheres.position.copy(), sim.spheres.velocity.copy()))
+    assert np.all(np.isfinite(runs[0][0]))
+    assert np.array_equal(runs[0][0], runs[1][0]) and np.array_equal(runs[0][1], runs[1][1])
+
+
+def test_many_steps_in_one_call_are_the_same_steps_one_by_one():
+    scene = many_spheres('linearly_implicit_euler', 20)
+    together, one_by_one = Simulation(scene), Simulation(scene)
+    together.run(300, 1e-3)
+    for _ in range(300):
+        one_by_one.step(1e-3)
+    assert np.array_equal(together.spheres.position, one_by_one.spheres.position)
+    assert np.array_equal(together.spheres.velocity, one_by_one.spheres.velocity)
+    assert together.time == pytest.approx(0.3, rel=1e-12)
+
+
+def test_a_build_is_compiled_once_per_configuration_and_shared():
+    first = Simulation(crossing_scene('rk4', SMOOTH, 100.0)).stepper
+    second = Simulation(crossing_scene('rk4', SMOOTH, 300.0)).stepper
+    assert first.build(False) is second.build(False)
+    other = Simulation(crossing_scene('rk4', ['gravity'], 100.0)).stepper
+    assert other.build(False) is not first.build(False)
+
+
+@pytest.mark.parametrize('layer, spheres', [('omp', 64), ('tbb', 64), ('workqueue', 4096)])
+def test_the_parallel_build_starts_where_its_launch_pays_for_this_threading_layer(
+        layer, spheres, monkeypatch):
+    monkeypatch.setattr(stepper, '_threading_layer', layer)
+    assert stepper.parallel_from_spheres() == spheres
