@@ -10,8 +10,8 @@ with added mass, and the linear submerged volume, all compiled, side by side in 
   and lift or added mass no more than 1.3x the same integrator without them.
 - 10 000 spheres (random sizes and densities through air and water, one thread, as the
   node runs it): ns per sphere-step against the memory-bandwidth bound of the bytes that
-  configuration's step moves (the arrays it reads and writes, its start-of-step copy),
-  from a copy bandwidth measured in the same run; the goal: within 1.5x.
+  configuration's step must move (the arrays it reads and writes), from a copy bandwidth
+  measured in the same run; the goal: within 1.5x.
 - 1 sphere, the default step beside MuJoCo's with its fluid model, both ways of calling.
 - Compile time of the default step, cold (an empty numba cache) and warm (from the cache),
   each in a fresh process: the seconds pool_sim's node spends on it before its first state.
@@ -37,10 +37,10 @@ VARIANTS = [('default effects', list(DEFAULT_EFFECTS), 'cap'),
             ('+ lift', list(DEFAULT_EFFECTS) + ['lift'], 'cap'),
             ('+ added_mass', list(DEFAULT_EFFECTS) + ['added_mass'], 'cap'),
             ('linear volume', list(DEFAULT_EFFECTS), 'linear')]
-# Doubles a sphere-step moves: reads position, velocity, external force, mass, radius,
-# volume, cross-section, drag coefficient; writes position and velocity and the
-# start-of-step copy the contact pass reads back with them (read and written again).
-BYTES_DEFAULT = 8 * ((3 + 3 + 3 + 5) + (3 + 3) + 2 * (3 + 3))
+# Bytes a sphere-step must move: it reads position, velocity, external force, mass,
+# radius, volume, cross-section and drag coefficient (doubles), writes position and velocity
+# (into the other pair of state arrays) and one byte that marks it for the contact pass.
+BYTES_DEFAULT = 8 * ((3 + 3 + 3 + 5) + (3 + 3)) + 1
 BYTES_LIFT = 8 * 5  # lift also reads its coefficient, its area and its normal
 SMALL_STEPS, SMALL_TURNS = 2000, 15
 LARGE_COUNT, LARGE_STEPS, LARGE_TURNS = 10_000, 20, 11

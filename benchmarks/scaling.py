@@ -31,9 +31,9 @@ SEED_PORT_LARGEST = 10_000  # beyond, one step takes seconds
 CORES = os.cpu_count()
 MUJOCO_LARGEST = 10_000  # a model holds at most 65 534 bodies; 10 000 load in ~13 s
 # The default step reads position, velocity, external force (3 doubles each), mass, radius,
-# volume, cross-section, drag coefficient (1 each) and writes position and velocity, plus
-# its start-of-step copy of both (3 + 3 doubles written, then read by the contact pass).
-BYTES_PER_SPHERE_STEP = 8 * ((3 + 3 + 3 + 5) + (3 + 3) + 2 * (3 + 3))
+# volume, cross-section, drag coefficient (1 each) and writes position and velocity (into
+# the other pair of state arrays) and a byte that marks a sphere for the contact pass.
+BYTES_PER_SPHERE_STEP = 8 * ((3 + 3 + 3 + 5) + (3 + 3)) + 1
 
 
 def random_spheres(count, seed=0):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from benchmarks.reference import smooth_motion
-from pool_sim.physics import INTEGRATORS, Scene, Simulation
+from pool_sim.physics import InvalidInput, INTEGRATORS, Scene, Simulation
 from pool_sim.physics import stepper
 
 SMOOTH = ['gravity', 'buoyancy', 'drag', 'lift', 'added_mass']
@@ -133,3 +133,22 @@ def test_the_parallel_build_starts_where_its_launch_pays_for_this_threading_laye
         layer, spheres, monkeypatch):
     monkeypatch.setattr(stepper, '_threading_layer', layer)
     assert stepper.parallel_from_spheres() == spheres
+
+
+@pytest.mark.parametrize('steps, dt', [(-1, 1e-3), (2.5, 1e-3), (True, 1e-3), ('3', 1e-3),
+                                       (3, 0.0), (3, -1e-3), (3, float('nan')),
+                                       (3, float('inf'))])
+def test_run_refuses_a_count_or_step_that_is_not_one_and_changes_nothing(steps, dt):
+    sim = Simulation(crossing_scene('rk4', SMOOTH, 100.0))
+    before = sim.spheres.position.copy()
+    with pytest.raises(InvalidInput):
+        sim.run(steps, dt)
+    assert sim.time == 0.0 and np.array_equal(sim.spheres.position, before)
+
+
+def test_each_configuration_has_a_cache_name_of_its_own_that_carries_the_sources_digest():
+    names = {stepper.Stepper(integrator, effects, volume).build(parallel).__name__
+             for integrator in INTEGRATORS for volume in ('cap', 'linear')
+             for effects in ([], ['gravity', 'contact'], SMOOTH) for parallel in (False, True)}
+    assert len(names) == 5 * 2 * 3 * 2
+    assert all(name.endswith(stepper.SOURCE_DIGEST) for name in names)

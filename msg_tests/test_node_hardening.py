@@ -195,11 +195,15 @@ def test_slow_publishing_does_not_give_up_simulated_time():
         assert ros.sim.given_up_s < 0.05
 
 
-def test_at_the_last_second_a_stamp_can_carry_the_node_pauses_and_reset_goes_on():
-    with Harness(FAST) as ros:
+@pytest.mark.parametrize('before_the_end', ['half a second', 'one step'])
+def test_at_the_last_second_a_stamp_can_carry_the_node_pauses_and_reset_goes_on(
+        before_the_end):
+    with Harness({**FAST, 'physics_rate_hz': 100.0}) as ros:
         logs = record_logs(ros.sim)
         poses = ros.collect(PoseArray, 'poses')
-        ros.sim.simulation.time = LAST_STAMP_S - 0.5
+        # One step before the end: the steps left, counted in a double, round to none.
+        ros.sim.simulation.time = LAST_STAMP_S - (0.5 if before_the_end == 'half a second'
+                                                  else ros.sim.simulation.max_step)
         ros.sim.next_publish_time = ros.sim.simulation.time
         assert ros.spin_until(lambda: ros.sim.paused)
         assert ros.sim.simulation.time <= LAST_STAMP_S

@@ -111,10 +111,15 @@ def medium_lift(density, fraction, body, rx, ry, rz):
 
 @compiled
 def lift_force(env, body, fraction, velocity):
-    """Lift from the air and from the water, each weighted by the part of the sphere in it."""
+    """Lift from the air and from the water, each weighted by the part of the sphere in it
+    (a medium the sphere is not in costs nothing: most spheres are wholly in one)."""
     vx, vy, vz = velocity
-    ax, ay, az = medium_lift(env[3], 1.0 - fraction, body, vx - env[4], vy - env[5], vz - env[6])
-    wx, wy, wz = medium_lift(env[7], fraction, body, vx - env[8], vy - env[9], vz - env[10])
+    ax = ay = az = wx = wy = wz = 0.0
+    if fraction < 1.0:
+        ax, ay, az = medium_lift(env[3], 1.0 - fraction, body, vx - env[4], vy - env[5],
+                                 vz - env[6])
+    if fraction > 0.0:
+        wx, wy, wz = medium_lift(env[7], fraction, body, vx - env[8], vy - env[9], vz - env[10])
     return ax + wx, ay + wy, az + wz
 
 

@@ -48,7 +48,7 @@ class Simulation:
         self.recoveries = 0
         self._recovered = set()  # indices put back, until taken
         self._failed_step = {}  # index -> the last step (s) it was put back in
-        self._scratch = None  # start-of-step state and failure flags, kept between calls
+        self._scratch = None  # the spare state, marks and failure flags, kept between calls
         pool = self.environment.pool
         self._constants = (environment_array(self.environment),
                            np.concatenate([pool.corner_min, pool.corner_max]).astype(float),
@@ -67,9 +67,15 @@ class Simulation:
 
     def run(self, steps, dt):
         """`steps` steps of dt seconds each, in one compiled call."""
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
+            raise InvalidInput(f'steps: a whole number >= 0, got {shown(steps)}')
+        dt = float(dt)
+        if not (math.isfinite(dt) and dt > 0.0):
+            raise InvalidInput(f'dt: must be finite and > 0, got {shown(dt)}')
         spheres = self.spheres
         if self._scratch is None or self._scratch[0].shape != spheres.position.shape:
             self._scratch = (np.empty_like(spheres.position), np.empty_like(spheres.velocity),
+                             np.zeros(spheres.count, dtype=np.uint8),
                              np.zeros(spheres.count, dtype=np.uint8))
         arrays = (spheres.position, spheres.velocity, spheres.mass, spheres.radius,
                   spheres.volume, spheres.cross_section, spheres.drag_coefficient,
@@ -77,7 +83,7 @@ class Simulation:
                   spheres.external_force, *self._constants)
         put_back = self.stepper.run(arrays, self._scratch, int(steps), float(dt))
         if put_back:
-            failed = self._scratch[2]
+            failed = self._scratch[3]
             indices = np.flatnonzero(failed)
             failed[indices] = 0
             self._count_recovered(indices, dt, put_back)

@@ -12,13 +12,15 @@ all. Each step is two passes over the spheres:
    (packed square roots and divisions) where a plain loop stays scalar. It counts the
    spheres it left non-finite in an integer reduction (a conditional store would stop the
    vectorising);
-2. contacts and the step guard, a plain loop with branches, rarely taken: a sphere the
-   step left non-finite (or whose bounce would not fit a double) goes back to where that
-   step began, at rest, and is flagged.
+2. contacts and the step guard for the spheres the first pass marked (on or past a face,
+   or not finite), a plain loop with branches: a sphere the step left non-finite (or whose
+   bounce would not fit a double) goes back to where that step began, at rest, and is
+   flagged. A step reads one pair of state arrays and writes the other, so the step's
+   start is still there for them without a copy of every sphere.
 
 Compiled functions are cached on disk (numba's cache, beside this file or in the user's
-cache directory when that is not writable), keyed by the configuration and by a digest of
-the physics sources, so an edit to any of them compiles afresh.
+cache directory when that is not writable), each configuration under a name that carries it
+and a digest of the physics sources, so an edit to any of them compiles afresh.
 """
 import hashlib
 import pathlib
@@ -33,6 +35,12 @@ from .integrators import explicit_euler, INTEGRATORS, linearly_implicit_euler, r
     semi_implicit_euler, velocity_verlet
 
 INTEGRATOR_CODES = {name: code for code, name in enumerate(INTEGRATORS)}
+# The codes run_steps dispatches on, by name (its globals: constants when it compiles).
+INTEGRATORS_BY_CODE = list(INTEGRATORS)
+_EXPLICIT_EULER, _SEMI_IMPLICIT_EULER = (INTEGRATOR_CODES['explicit_euler'],
+                                         INTEGRATOR_CODES['semi_implicit_euler'])
+_VELOCITY_VERLET, _RK4 = INTEGRATOR_CODES['velocity_verlet'], INTEGRATOR_CODES['rk4']
+_LINEARLY_IMPLICIT_EULER = INTEGRATOR_CODES['linearly_implicit_euler']
 _SOURCES = ('media.py', 'effects.py', 'integrators.py', 'contact.py', 'stepper.py')
 SOURCE_DIGEST = hashlib.sha256(b''.join(
     (pathlib.Path(__file__).parent / name).read_bytes() for name in _SOURCES)).hexdigest()[:16]
@@ -66,15 +74,21 @@ def _compose(integrator_code, listed, has_contact, has_friction, parallel, sourc
     """The compiled step loop of one configuration (see the module's docstring).
 
     Every argument is a compile-time constant of the function made here (a closure
-    variable: numba folds each branch on it away, and its cache keys on them).
-    source_digest only keys the cache."""
+    variable: numba folds each branch on it away). source_digest, with the configuration,
+    names the function, which is what numba's cache tells functions apart by."""
     each_sphere = numba.prange if parallel else range
 
     def run_steps(position, velocity, mass, radius, volume, cross_section, drag_coefficient,
                   lift_coefficient, lift_area, lift_normal, external_force, environment, pool,
-                  contact, old_position, old_velocity, failed, steps, dt):
+                  contact, spare_position, spare_velocity, flagged, failed, steps, dt):
         """Take `steps` steps of dt s in place; returns how many times the step guard put a
-        sphere back (flagged in failed (n,), which must be zero on entry)."""
+        sphere back (flagged in failed (n,), which must be zero on entry).
+
+        Each step reads one pair of state arrays and writes the other (position and
+        velocity, spare_position and spare_velocity, in turn), so the start of the step is
+        still there for the few spheres that need it: those the smooth pass marks in
+        flagged (n,) uint8, on or past a face or non-finite. The result ends in position
+        and velocity."""
         gx, gy, gz = environment[0], environment[1], environment[2]
         air_density, wind_x, wind_y, wind_z = (environment[3], environment[4],
                                                environment[5], environment[6])
@@ -82,11 +96,18 @@ def _compose(integrator_code, listed, has_contact, has_friction, parallel, sourc
                                                           environment[9], environment[10])
         surface_z = environment[11]
         faces = (pool[0], pool[1], pool[2], pool[3], pool[4], pool[5])
+        low_x, low_y, low_z, high_x, high_y, high_z = faces
         contact_parameters = (contact[0], contact[1], contact[2], contact[3])
         count = position.shape[1]
         put_back = 0
-        for _ in range(steps):
-            nonfinite = 0
+        for step in range(steps):
+            if step % 2 == 0:
+                old_position, old_velocity = position, velocity
+                new_position, new_velocity = spare_position, spare_velocity
+            else:
+                old_position, old_velocity = spare_position, spare_velocity
+                new_position, new_velocity = position, velocity
+            marked = 0
             for i in each_sphere(count):
                 env = (gx, gy, gz, air_density, wind_x, wind_y, wind_z, water_density,
                        current_x, current_y, current_z, surface_z)
@@ -94,51 +115,69 @@ def _compose(integrator_code, listed, has_contact, has_friction, parallel, sourc
                         lift_coefficient[i], lift_area[i], lift_normal[0, i],
                         lift_normal[1, i], lift_normal[2, i], external_force[0, i],
                         external_force[1, i], external_force[2, i])
-                x, y, z = position[0, i], position[1, i], position[2, i]
-                vx, vy, vz = velocity[0, i], velocity[1, i], velocity[2, i]
-                old_position[0, i], old_position[1, i], old_position[2, i] = x, y, z
-                old_velocity[0, i], old_velocity[1, i], old_velocity[2, i] = vx, vy, vz
-                if integrator_code == 0:
-                    s = explicit_euler(listed, env, body, (x, y, z), (vx, vy, vz), dt)
-                elif integrator_code == 1:
-                    s = semi_implicit_euler(listed, env, body, (x, y, z), (vx, vy, vz), dt)
-                elif integrator_code == 2:
-                    s = velocity_verlet(listed, env, body, (x, y, z), (vx, vy, vz), dt)
-                elif integrator_code == 3:
-                    s = rk4(listed, env, body, (x, y, z), (vx, vy, vz), dt)
+                start = (old_position[0, i], old_position[1, i], old_position[2, i])
+                start_velocity = (old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
+                if integrator_code == _EXPLICIT_EULER:
+                    s = explicit_euler(listed, env, body, start, start_velocity, dt)
+                elif integrator_code == _SEMI_IMPLICIT_EULER:
+                    s = semi_implicit_euler(listed, env, body, start, start_velocity, dt)
+                elif integrator_code == _VELOCITY_VERLET:
+                    s = velocity_verlet(listed, env, body, start, start_velocity, dt)
+                elif integrator_code == _RK4:
+                    s = rk4(listed, env, body, start, start_velocity, dt)
                 else:
-                    s = linearly_implicit_euler(listed, env, body, (x, y, z), (vx, vy, vz),
-                                                dt)
-                position[0, i], position[1, i], position[2, i] = s[0], s[1], s[2]
-                velocity[0, i], velocity[1, i], velocity[2, i] = s[3], s[4], s[5]
-                # v * 0 is 0 for a finite v and NaN otherwise: one test for six numbers.
-                zero_if_finite = (s[0] * 0.0 + s[1] * 0.0 + s[2] * 0.0 + s[3] * 0.0
-                                  + s[4] * 0.0 + s[5] * 0.0)
-                nonfinite += 0 if zero_if_finite == 0.0 else 1
-            if not (has_contact or nonfinite > 0):
+                    s = linearly_implicit_euler(listed, env, body, start, start_velocity, dt)
+                new_position[0, i], new_position[1, i], new_position[2, i] = s[0], s[1], s[2]
+                new_velocity[0, i], new_velocity[1, i], new_velocity[2, i] = s[3], s[4], s[5]
+                # Marked for the second pass: on or past a face (with contact), or not
+                # finite (v * 0 is 0 for a finite v and NaN otherwise; a NaN position is
+                # inside no face either). Stored whatever it is, and counted in an integer
+                # reduction: a conditional store would stop the loop vectorising.
+                r = radius[i]
+                finite = (s[0] * 0.0 + s[1] * 0.0 + s[2] * 0.0 + s[3] * 0.0 + s[4] * 0.0
+                          + s[5] * 0.0) == 0.0
+                inside = (low_x + r < s[0] < high_x - r and low_y + r < s[1] < high_y - r
+                          and low_z + r < s[2] < high_z - r) if has_contact else True
+                mark = 0 if finite and inside else 1
+                flagged[i] = mark
+                marked += mark
+            if marked == 0:
                 continue
             for i in range(count):
-                x, y, z = position[0, i], position[1, i], position[2, i]
-                vx, vy, vz = velocity[0, i], velocity[1, i], velocity[2, i]
-                overflow = nonfinite > 0 and not (x * 0.0 + y * 0.0 + z * 0.0 + vx * 0.0
-                                                  + vy * 0.0 + vz * 0.0) == 0.0
+                if flagged[i] == 0:
+                    continue
+                state = (new_position[0, i], new_position[1, i], new_position[2, i],
+                         new_velocity[0, i], new_velocity[1, i], new_velocity[2, i])
+                overflow = not (state[0] * 0.0 + state[1] * 0.0 + state[2] * 0.0
+                                + state[3] * 0.0 + state[4] * 0.0 + state[5] * 0.0) == 0.0
                 if has_contact and not overflow:
                     old = (old_position[0, i], old_position[1, i], old_position[2, i],
                            old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
                     s, overflow = resolve_contacts(faces, contact_parameters, has_friction,
-                                                   radius[i], old, (x, y, z, vx, vy, vz), dt)
-                    position[0, i], position[1, i], position[2, i] = s[0], s[1], s[2]
-                    velocity[0, i], velocity[1, i], velocity[2, i] = s[3], s[4], s[5]
+                                                   radius[i], old, state, dt)
+                    new_position[0, i], new_position[1, i], new_position[2, i] = s[0], s[1], s[2]
+                    new_velocity[0, i], new_velocity[1, i], new_velocity[2, i] = s[3], s[4], s[5]
                 if overflow:
                     for axis in range(3):
-                        position[axis, i] = old_position[axis, i]
-                        velocity[axis, i] = 0.0
+                        new_position[axis, i] = old_position[axis, i]
+                        new_velocity[axis, i] = 0.0
                     failed[i] = 1
                     put_back += 1
+        if steps % 2 == 1:  # the last step wrote the spare pair
+            for i in range(count):
+                for axis in range(3):
+                    position[axis, i] = spare_position[axis, i]
+                    velocity[axis, i] = spare_velocity[axis, i]
         return put_back
 
+    # numba's cache keys on the function's name, its own file and its closure: the name
+    # carries the configuration and the digest of every physics source, so each
+    # configuration has a cache index of its own (no two processes saving different ones
+    # into one index) and an edit to any source compiles afresh.
+    flags = ''.join('1' if flag else '0' for flag in (*listed, has_contact, has_friction))
     run_steps.__qualname__ = run_steps.__name__ = (
-        'run_steps_parallel' if parallel else 'run_steps')  # a cache index of each build
+        f'run_steps_{INTEGRATORS_BY_CODE[integrator_code]}_{flags}_'
+        f'{"parallel" if parallel else "plain"}_{source_digest}')
     return numba.njit(cache=True, nogil=True, error_model='numpy', parallel=parallel)(
         run_steps)
 
@@ -170,7 +209,8 @@ class Stepper:
 
     def run(self, arrays, scratch, steps, dt):
         """`steps` steps of dt s on arrays (the kernel's leading arguments, as
-        Simulation packs them) with scratch = (old_position, old_velocity, failed).
+        Simulation packs them) with scratch = (spare_position, spare_velocity, flagged,
+        failed).
 
         Returns how many times the guard put a sphere back."""
         global _threading_layer

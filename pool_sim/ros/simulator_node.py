@@ -389,7 +389,7 @@ class PoolSimNode(Node):
             return False, 0
         expired_forces(sim, self.wrench_time, self.wrench_timeout)
         steps = max(math.ceil((self.next_publish_time - 1e-9 - sim.time) / dt), 1)
-        steps = min(steps, int((LAST_STAMP_S - sim.time) / dt))
+        steps = max(min(steps, int((LAST_STAMP_S - sim.time) / dt)), 1)
         if limit is not None:
             steps = min(steps, limit)
         if self.wrench_timeout > 0.0 and self.wrench_time.size:  # none past the first expiry
@@ -710,6 +710,7 @@ class PoolSimNode(Node):
         added = [name for name in after if name not in set(before)]
         wrench_time = dict(zip(before, self.wrench_time.tolist()))
         self.simulation.change_spheres(scene)
+        self.step_cost_s = None  # measured anew: the count (and so the build) changed
         self.scene = scene
         self.wrench_time = np.array([wrench_time.get(name, -math.inf) for name in after])
         self.inputs.remove_spheres(removed)
