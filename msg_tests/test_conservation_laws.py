@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from pool_sim.physics import Scene, Simulation
-from pool_sim.physics.effects import lift_force
+from pool_sim.physics.effects import effect_flags, lift_force
 from pool_sim.physics.stepper import body_tuple, environment_tuple
 from scenes import G, one_sphere
 
@@ -54,8 +54,8 @@ def test_lift_is_perpendicular_to_the_relative_velocity_with_the_stated_magnitud
             velocity = rng.normal(size=(3, 1)) * 5.0
             spheres.lift_normal = rng.normal(size=(3, 1))
             spheres.lift_normal /= np.linalg.norm(spheres.lift_normal)
-            force = np.array(lift_force(env, body_tuple(spheres, 0), water_fraction,
-                                        tuple(velocity[:, 0]))).reshape(3, 1)
+            force = np.array(lift_force(effect_flags(['lift']), env, body_tuple(spheres, 0),
+                                        water_fraction, tuple(velocity[:, 0]))).reshape(3, 1)
             relative = velocity[:, 0] - medium.flow_velocity
             assert abs(force[:, 0] @ relative) <= 1e-12 * np.linalg.norm(force) * np.linalg.norm(
                 relative)

@@ -41,7 +41,7 @@ def test_a_bad_parameter_stops_the_node_naming_the_key(params, message):
 def test_an_empty_effects_list_arrives_unset_and_means_nothing_runs_but_external_forces():
     params = {'effects': [], 'real_time_factor': 0.0}
     with Harness(params) as ros:
-        assert ros.sim.simulation.stepper.configuration[1] == (False,) * 5 + (True,)
+        assert ros.sim.simulation.stepper.configuration[1] == (False,) * 5 + (True, True)
         poses = ros.collect(PoseArray, 'poses')
         assert ros.spin_until(lambda: ros.sim.simulation.time > 1.0 and poses)
         # No gravity: everything floats where it was put.

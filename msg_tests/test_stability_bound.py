@@ -42,9 +42,12 @@ def test_the_bound_separates_growth_from_decay_on_the_linearised_float(integrato
     for factor, grows in ((0.9, False), (1.2, True)):
         sim = Simulation(scene.with_values(physics_rate_hz=1.0 / (factor * bound)))
         sim.spheres.position[2, 0] = -0.005  # 5 mm off its float: the linear regime
-        with np.errstate(all='ignore'):
-            sim.advance(400 * sim.max_step)
-        amplitude = abs(sim.spheres.position[2, 0])
+        # The largest swing over 400 steps: beyond the waterline band (r = 0.1 m) the spring
+        # is gone, so an unstable float swings chaotically there rather than for ever out.
+        amplitude = 0.0
+        for _ in range(400):
+            sim.step()
+            amplitude = max(amplitude, abs(sim.spheres.position[2, 0]))
         escaped = not np.isfinite(amplitude) or amplitude > 0.05
         assert escaped == grows, (integrator, factor)
 

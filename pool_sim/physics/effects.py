@@ -10,7 +10,7 @@ loop is built. What a sphere is to these functions:
   water_density, current_x, current_y, current_z, surface_z): m/s^2, kg/m^3, m/s, m.
 - `body`: one sphere's properties, a flat tuple (mass kg, radius m, volume m^3,
   cross_section m^2, drag_coefficient, lift_coefficient, lift_area m^2, lift normal
-  (3, unit), external force (3, N, world axes)).
+  (3, unit), external force (3, N, world axes), 1/radius 1/m).
 - positions and velocities are 3-tuples, m and m/s; forces 3-tuples, N.
 
 Forces from each medium are weighted by the fraction of the sphere's volume inside it:
@@ -27,25 +27,29 @@ DEFAULT_EFFECTS = ('gravity', 'buoyancy', 'drag', 'contact', 'friction')
 SMOOTH_EFFECTS = ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass')
 
 
-def effect_flags(effects, submerged_volume='cap'):
+def effect_flags(effects, submerged_volume='cap', vectorised=False):
     """The compile-time tuple the compiled functions branch on: (gravity, buoyancy, drag,
-    lift, added_mass, cap) as bools; cap is False for the linear submerged volume."""
+    lift, added_mass, cap, scalar) as bools; cap is False for the linear submerged volume;
+    scalar (not vectorised) lets a function skip work a sphere does not need by a branch,
+    which a vectorised loop would pay for twice (it computes both sides of a branch, or
+    not vectorise at all)."""
     unknown = set(effects) - set(EFFECTS)
     if unknown:
         raise ValueError(f'effects: unknown {sorted(unknown)}; allowed: {list(EFFECTS)}')
     if submerged_volume not in ('cap', 'linear'):
         raise ValueError(f"submerged_volume: 'cap' or 'linear', got {submerged_volume!r}")
-    return tuple(name in effects for name in SMOOTH_EFFECTS) + (submerged_volume == 'cap',)
+    return tuple(name in effects for name in SMOOTH_EFFECTS) + (submerged_volume == 'cap',
+                                                                 not vectorised)
 
 
 @compiled
 def water_fraction(listed, env, body, z):
     """Fraction of the sphere under water; 0 without computing it when no listed effect
     needs it (gravity alone, or nothing)."""
-    gravity, buoyancy, drag, lift, added, cap = listed
+    gravity, buoyancy, drag, lift, added, cap, scalar = listed
     if not (buoyancy or drag or lift or added):
         return 0.0
-    return submerged_fraction(cap, z, body[1], env[11])
+    return submerged_fraction(cap, z, body[1], body[13], env[11])
 
 
 @compiled
@@ -110,15 +114,16 @@ def medium_lift(density, fraction, body, rx, ry, rz):
 
 
 @compiled
-def lift_force(env, body, fraction, velocity):
-    """Lift from the air and from the water, each weighted by the part of the sphere in it
-    (a medium the sphere is not in costs nothing: most spheres are wholly in one)."""
+def lift_force(listed, env, body, fraction, velocity):
+    """Lift from the air and from the water, each weighted by the part of the sphere in it.
+    In a scalar loop a medium the sphere is not in costs nothing (most spheres are wholly in
+    one); a vectorised one computes both, which keeps it vectorised."""
     vx, vy, vz = velocity
     ax = ay = az = wx = wy = wz = 0.0
-    if fraction < 1.0:
+    if fraction < 1.0 or not listed[6]:
         ax, ay, az = medium_lift(env[3], 1.0 - fraction, body, vx - env[4], vy - env[5],
                                  vz - env[6])
-    if fraction > 0.0:
+    if fraction > 0.0 or not listed[6]:
         wx, wy, wz = medium_lift(env[7], fraction, body, vx - env[8], vy - env[9], vz - env[10])
     return ax + wx, ay + wy, az + wz
 
@@ -143,7 +148,7 @@ def explicit_force(listed, env, body, velocity, fraction):
         bx, by, bz = buoyancy_force(env, body, fraction)
         fx, fy, fz = fx + bx, fy + by, fz + bz
     if listed[3]:
-        lx, ly, lz = lift_force(env, body, fraction, velocity)
+        lx, ly, lz = lift_force(listed, env, body, fraction, velocity)
         fx, fy, fz = fx + lx, fy + ly, fz + lz
     return fx, fy, fz
 
@@ -172,12 +177,12 @@ def buoyancy_stiffness(cap, env, body, z, predicted_z):
     fully under (or above) the water that would cross the band would otherwise feel no
     spring at all.
     """
-    radius, volume, surface_z = body[1], body[2], env[11]
+    radius, volume, inverse_radius, surface_z = body[1], body[2], body[13], env[11]
     spring_per_volume_slope = -env[2] * (env[7] - env[3])
     predicted_z = min(max(predicted_z, surface_z - radius), surface_z + radius)
     at_start = spring_per_volume_slope * waterline_volume_slope(cap, z, radius, volume,
                                                                 surface_z)
     secant = spring_per_volume_slope * volume * submerged_fraction_slope(
-        cap, z, predicted_z, radius, surface_z)
+        cap, z, predicted_z, radius, inverse_radius, surface_z)
     stiffness = secant if secant > at_start else at_start
     return stiffness if stiffness > 0.0 else 0.0

@@ -103,10 +103,10 @@ def linearly_implicit_euler(listed, env, body, position, velocity, dt):
         factor_air, factor_water = drag_factors(env, body, fraction)
         wx, wy, wz, cx, cy, cz = env[4], env[5], env[6], env[8], env[9], env[10]
         total = factor_air + factor_water
-        divisor = total if total > 0.0 else 1.0
-        mx = (factor_air * wx + factor_water * cx) / divisor
-        my = (factor_air * wy + factor_water * cy) / divisor
-        mz = (factor_air * wz + factor_water * cz) / divisor
+        inverse_total = 1.0 / (total if total > 0.0 else 1.0)
+        mx = (factor_air * wx + factor_water * cx) * inverse_total
+        my = (factor_air * wy + factor_water * cy) * inverse_total
+        mz = (factor_air * wz + factor_water * cz) * inverse_total
         rx, ry, rz = m * (vx - mx) + dt * fx, m * (vy - my) + dt * fy, m * (vz - mz) + dt * fz
         pushed = math.sqrt(rx * rx + ry * ry + rz * rz)
         end_speed = 2.0 * pushed / (m + math.sqrt(m * m + 4.0 * dt * total * pushed))

@@ -56,8 +56,9 @@ def compiled(function):
 
 
 @compiled
-def submerged_fraction(cap, z, radius, surface_z):
-    """Fraction of a sphere's volume below the surface.
+def submerged_fraction(cap, z, radius, inverse_radius, surface_z):
+    """Fraction of a sphere's volume below the surface (inverse_radius = 1/radius, 1/m: a
+    product where a division would cost several).
 
     cap (True): the exact spherical cap: the cap of height h holds pi*h^2*(3r - h)/3 of the
     sphere's 4*pi*r^3/3. False: the seed's approximation, depth / diameter (for comparison).
@@ -65,14 +66,14 @@ def submerged_fraction(cap, z, radius, surface_z):
     depth = surface_z - (z - radius)
     depth = 0.0 if depth < 0.0 else depth
     depth = 2.0 * radius if depth > 2.0 * radius else depth
-    h = depth / radius
+    h = depth * inverse_radius
     if cap:
         return 0.25 * h * h * (3.0 - h)
     return 0.5 * h
 
 
 @compiled
-def submerged_fraction_slope(cap, z_from, z_to, radius, surface_z):
+def submerged_fraction_slope(cap, z_from, z_to, radius, inverse_radius, surface_z):
     """-(change of submerged_fraction) / (change of z) from z_from to z_to, 1/m: the secant
     slope, and at z_from == z_to the slope itself.
 
@@ -82,15 +83,15 @@ def submerged_fraction_slope(cap, z_from, z_to, radius, surface_z):
     the waterline band the fraction does not change, which the share of the way from z_from
     to z_to inside the band accounts for.
     """
-    h1 = min(max((surface_z - z_from) / radius + 1.0, 0.0), 2.0)
-    h2 = min(max((surface_z - z_to) / radius + 1.0, 0.0), 2.0)
+    h1 = min(max((surface_z - z_from) * inverse_radius + 1.0, 0.0), 2.0)
+    h2 = min(max((surface_z - z_to) * inverse_radius + 1.0, 0.0), 2.0)
     travel = z_to - z_from
     share = (h1 - h2) * radius / (travel if travel != 0.0 else 1.0)
     share = share if travel != 0.0 else 1.0
     if cap:
-        return 0.25 * (3.0 * (h1 + h2) - (h1 * h1 + h1 * h2 + h2 * h2)) / radius * share
+        return 0.25 * (3.0 * (h1 + h2) - (h1 * h1 + h1 * h2 + h2 * h2)) * inverse_radius * share
     in_band = h1 != h2 or (h1 > 0.0 and h1 < 2.0)
-    return 0.5 / radius * share if in_band else 0.0
+    return 0.5 * inverse_radius * share if in_band else 0.0
 
 
 @compiled
@@ -101,7 +102,7 @@ def waterline_volume_slope(cap, z, radius, volume, surface_z):
     if cap:
         reach = radius * radius - offset * offset
         return math.pi * (reach if reach > 0.0 else 0.0)
-    return volume / (2.0 * radius) if abs(offset) < radius else 0.0
+    return 0.5 * volume / radius if abs(offset) < radius else 0.0
 
 
 def cap_volume_integral(z, radius, surface_z):

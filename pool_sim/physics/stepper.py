@@ -114,7 +114,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, parallel, sourc
                 body = (mass[i], radius[i], volume[i], cross_section[i], drag_coefficient[i],
                         lift_coefficient[i], lift_area[i], lift_normal[0, i],
                         lift_normal[1, i], lift_normal[2, i], external_force[0, i],
-                        external_force[1, i], external_force[2, i])
+                        external_force[1, i], external_force[2, i], 1.0 / radius[i])
                 start = (old_position[0, i], old_position[1, i], old_position[2, i])
                 start_velocity = (old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
                 if integrator_code == _EXPLICIT_EULER:
@@ -200,7 +200,9 @@ class Stepper:
 
     def build(self, parallel):
         """The compiled function for this configuration, plain or parallel."""
-        key = self.configuration + (bool(parallel),)
+        integrator_code, listed, has_contact, has_friction = self.configuration
+        listed = listed[:-1] + (not parallel,)  # the parallel loop is the vectorised one
+        key = (integrator_code, listed, has_contact, has_friction, bool(parallel))
         with self._builds_lock:
             function = self._builds.get(key)
             if function is None:
@@ -239,4 +241,5 @@ def body_tuple(spheres, index):
     return (float(spheres.mass[i]), float(spheres.radius[i]), float(spheres.volume[i]),
             float(spheres.cross_section[i]), float(spheres.drag_coefficient[i]),
             float(spheres.lift_coefficient[i]), float(spheres.lift_area[i]),
-            *spheres.lift_normal[:, i].tolist(), *spheres.external_force[:, i].tolist())
+            *spheres.lift_normal[:, i].tolist(), *spheres.external_force[:, i].tolist(),
+            1.0 / float(spheres.radius[i]))
