@@ -43,6 +43,7 @@ VARIANTS = [('default effects', list(DEFAULT_EFFECTS), 'cap'),
 BYTES_DEFAULT = 8 * ((3 + 3 + 3 + 5) + (3 + 3)) + 1
 BYTES_LIFT = 8 * 5  # lift also reads its coefficient, its area and its normal
 SMALL_STEPS, SMALL_TURNS = 2000, 15
+LIFT_COEFFICIENT = 0.2  # every sphere's, so that lift, where listed, acts
 LARGE_COUNT, LARGE_STEPS, LARGE_TURNS = 10_000, 20, 11
 
 COMPILE_ONCE = '''
@@ -60,8 +61,10 @@ def small_costs():
     for integrator in INTEGRATORS:
         for label, effects, volume in VARIANTS:
             keys.append((integrator, label))
-            simulations.append(Simulation(
-                Scene.default().with_values(integrator=integrator, effects=effects), volume))
+            scene = Scene.default().with_values(integrator=integrator, effects=effects)
+            simulations.append(Simulation(scene.with_spheres(
+                scene.sphere_names, {'spheres.lift_coefficient': [LIFT_COEFFICIENT] * 3}),
+                volume))
     many = seconds_per_step_in_turns(simulations, SMALL_STEPS, SMALL_TURNS, restart=True)
     one = [timed(simulation.step) for simulation in simulations]
     return {key: (m * 1e6, o * 1e6) for key, m, o in zip(keys, many, one)}
@@ -75,7 +78,8 @@ def large_costs():
         for label, effects, volume in VARIANTS:
             keys.append((integrator, label))
             simulations.append(Simulation(many_spheres_scene(
-                LARGE_COUNT, effects, integrator=integrator), volume))
+                LARGE_COUNT, effects, integrator=integrator,
+                **{'spheres.lift_coefficient': [LIFT_COEFFICIENT] * LARGE_COUNT}), volume))
     seconds = seconds_per_step_in_turns(simulations, LARGE_STEPS, LARGE_TURNS, restart=True)
     return {key: s / LARGE_COUNT * 1e9 for key, s in zip(keys, seconds)}
 

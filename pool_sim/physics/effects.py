@@ -120,10 +120,11 @@ def lift_force(listed, env, body, fraction, velocity):
     one); a vectorised one computes both, which keeps it vectorised."""
     vx, vy, vz = velocity
     ax = ay = az = wx = wy = wz = 0.0
-    if fraction < 1.0 or not listed[6]:
+    # The constant first: in the vectorised build the condition is then no branch at all.
+    if not listed[6] or fraction < 1.0:
         ax, ay, az = medium_lift(env[3], 1.0 - fraction, body, vx - env[4], vy - env[5],
                                  vz - env[6])
-    if fraction > 0.0 or not listed[6]:
+    if not listed[6] or fraction > 0.0:
         wx, wy, wz = medium_lift(env[7], fraction, body, vx - env[8], vy - env[9], vz - env[10])
     return ax + wx, ay + wy, az + wz
 

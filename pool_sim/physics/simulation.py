@@ -67,10 +67,13 @@ class Simulation:
 
     def run(self, steps, dt):
         """`steps` steps of dt seconds each, in one compiled call."""
-        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
+        if type(steps) is not int and (isinstance(steps, bool)
+                                       or not isinstance(steps, (int, np.integer))):
+            raise InvalidInput(f'steps: a whole number >= 0, got {shown(steps)}')
+        if steps < 0:
             raise InvalidInput(f'steps: a whole number >= 0, got {shown(steps)}')
         dt = float(dt)
-        if not (math.isfinite(dt) and dt > 0.0):
+        if not 0.0 < dt < math.inf:  # NaN is not either
             raise InvalidInput(f'dt: must be finite and > 0, got {shown(dt)}')
         spheres = self.spheres
         if self._scratch is None or self._scratch[0].shape != spheres.position.shape:
@@ -81,7 +84,7 @@ class Simulation:
                   spheres.volume, spheres.cross_section, spheres.drag_coefficient,
                   spheres.lift_coefficient, spheres.lift_area, spheres.lift_normal,
                   spheres.external_force, *self._constants)
-        put_back = self.stepper.run(arrays, self._scratch, int(steps), float(dt))
+        put_back = self.stepper.run(arrays, self._scratch, int(steps), dt)
         if put_back:
             failed = self._scratch[3]
             indices = np.flatnonzero(failed)

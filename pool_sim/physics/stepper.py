@@ -197,6 +197,7 @@ class Stepper:
         self.configuration = (INTEGRATOR_CODES[integrator],
                               effect_flags(effects, submerged_volume),
                               'contact' in effects, 'friction' in effects)
+        self._mine = [None, None]  # this Stepper's plain and parallel build, once looked up
 
     def build(self, parallel):
         """The compiled function for this configuration, plain or parallel."""
@@ -216,12 +217,15 @@ class Stepper:
 
         Returns how many times the guard put a sphere back."""
         global _threading_layer
-        if arrays[0].shape[1] >= parallel_from_spheres():
+        parallel = arrays[0].shape[1] >= parallel_from_spheres()
+        function = self._mine[parallel] or self.build(parallel)
+        self._mine[parallel] = function
+        if parallel:
             with _parallel_launch:
-                put_back = self.build(True)(*arrays, *scratch, steps, dt)
+                put_back = function(*arrays, *scratch, steps, dt)
                 _threading_layer = _threading_layer or numba.threading_layer()
             return put_back
-        return self.build(False)(*arrays, *scratch, steps, dt)
+        return function(*arrays, *scratch, steps, dt)
 
 
 def environment_array(env):
