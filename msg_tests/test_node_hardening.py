@@ -202,9 +202,11 @@ def test_at_the_last_second_a_stamp_can_carry_the_node_pauses_and_reset_goes_on(
         logs = record_logs(ros.sim)
         poses = ros.collect(PoseArray, 'poses')
         # One step before the end: the steps left, counted in a double, round to none.
-        ros.sim.simulation.time = LAST_STAMP_S - (0.5 if before_the_end == 'half a second'
-                                                  else ros.sim.simulation.max_step)
-        ros.sim.next_publish_time = ros.sim.simulation.time
+        # Under the node's lock: a tick's batch must not end after it, on top of it.
+        with ros.sim.lock:
+            ros.sim.simulation.time = LAST_STAMP_S - (
+                0.5 if before_the_end == 'half a second' else ros.sim.simulation.max_step)
+            ros.sim.next_publish_time = ros.sim.simulation.time
         assert ros.spin_until(lambda: ros.sim.paused)
         assert ros.sim.simulation.time <= LAST_STAMP_S
         assert logs.said('error', 'the last a ROS time stamp can carry')
