@@ -136,9 +136,11 @@ def _compose(integrator_code, listed, has_contact, has_friction, parallel, sourc
                 r = radius[i]
                 finite = (s[0] * 0.0 + s[1] * 0.0 + s[2] * 0.0 + s[3] * 0.0 + s[4] * 0.0
                           + s[5] * 0.0) == 0.0
-                inside = (low_x + r < s[0] < high_x - r and low_y + r < s[1] < high_y - r
-                          and low_z + r < s[2] < high_z - r) if has_contact else True
-                mark = 0 if finite and inside else 1
+                # & rather than `and`: no branch for the vectoriser to undo.
+                inside = ((low_x + r < s[0]) & (s[0] < high_x - r) & (low_y + r < s[1])
+                          & (s[1] < high_y - r) & (low_z + r < s[2]) & (s[2] < high_z - r)
+                          if has_contact else True)
+                mark = 0 if finite & inside else 1
                 flagged[i] = mark
                 marked += mark
             if marked == 0:
