@@ -27,19 +27,18 @@ DEFAULT_EFFECTS = ('gravity', 'buoyancy', 'drag', 'contact', 'friction')
 SMOOTH_EFFECTS = ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass')
 
 
-def effect_flags(effects, submerged_volume='cap', vectorised=False):
+def effect_flags(effects, submerged_volume='cap', scalar=True):
     """The compile-time tuple the compiled functions branch on: (gravity, buoyancy, drag,
     lift, added_mass, cap, scalar) as bools; cap is False for the linear submerged volume;
-    scalar (not vectorised) lets a function skip work a sphere does not need by a branch,
-    which a vectorised loop would pay for twice (it computes both sides of a branch, or
-    not vectorise at all)."""
+    scalar (the plain loop, not the vectorised one) lets a function skip work a sphere does
+    not need by a branch, which a vectorised loop would pay for on both sides."""
     unknown = set(effects) - set(EFFECTS)
     if unknown:
         raise ValueError(f'effects: unknown {sorted(unknown)}; allowed: {list(EFFECTS)}')
     if submerged_volume not in ('cap', 'linear'):
         raise ValueError(f"submerged_volume: 'cap' or 'linear', got {submerged_volume!r}")
     return tuple(name in effects for name in SMOOTH_EFFECTS) + (submerged_volume == 'cap',
-                                                                 not vectorised)
+                                                                 bool(scalar))
 
 
 @compiled

@@ -67,10 +67,8 @@ class Simulation:
 
     def run(self, steps, dt):
         """`steps` steps of dt seconds each, in one compiled call."""
-        if type(steps) is not int and (isinstance(steps, bool)
-                                       or not isinstance(steps, (int, np.integer))):
-            raise InvalidInput(f'steps: a whole number >= 0, got {shown(steps)}')
-        if steps < 0:
+        if (type(steps) is not int and (isinstance(steps, bool) or not isinstance(
+                steps, (int, np.integer)))) or steps < 0:  # the type first: then a number
             raise InvalidInput(f'steps: a whole number >= 0, got {shown(steps)}')
         dt = float(dt)
         if not 0.0 < dt < math.inf:  # NaN is not either

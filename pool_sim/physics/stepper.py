@@ -199,13 +199,15 @@ class Stepper:
         self.configuration = (INTEGRATOR_CODES[integrator],
                               effect_flags(effects, submerged_volume),
                               'contact' in effects, 'friction' in effects)
+        self._listed = {parallel: effect_flags(effects, submerged_volume, scalar=not parallel)
+                        for parallel in (False, True)}  # the parallel loop is the vectorised
         self._mine = [None, None]  # this Stepper's plain and parallel build, once looked up
 
     def build(self, parallel):
         """The compiled function for this configuration, plain or parallel."""
-        integrator_code, listed, has_contact, has_friction = self.configuration
-        listed = listed[:-1] + (not parallel,)  # the parallel loop is the vectorised one
-        key = (integrator_code, listed, has_contact, has_friction, bool(parallel))
+        integrator_code, _, has_contact, has_friction = self.configuration
+        parallel = bool(parallel)
+        key = (integrator_code, self._listed[parallel], has_contact, has_friction, parallel)
         with self._builds_lock:
             function = self._builds.get(key)
             if function is None:
