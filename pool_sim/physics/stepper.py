@@ -9,9 +9,9 @@ all. Each step is two passes over the spheres:
 1. the smooth step, sphere by sphere: from parallel_from_spheres() spheres up a numba
    parallel loop (prange), which pays for itself even on one thread: numba proves a parallel
    loop's arrays do not alias and tells LLVM so, which then computes four spheres at once
-   (packed square roots and divisions) where a plain loop stays scalar. It counts the
-   spheres it left non-finite in an integer reduction (a conditional store would stop the
-   vectorising);
+   (packed square roots and divisions) where a plain loop stays scalar. It marks each
+   sphere on or past a face or not finite in a byte stored for every sphere, and counts
+   them in an integer reduction (a conditional store would stop the vectorising);
 2. contacts and the step guard for the spheres the first pass marked (on or past a face,
    or not finite), a plain loop with branches: a sphere the step left non-finite (or whose
    bounce would not fit a double) goes back to where that step began, at rest, and is
