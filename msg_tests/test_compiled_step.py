@@ -10,6 +10,7 @@ from pool_sim.physics import InvalidInput, INTEGRATORS, Scene, Simulation
 from pool_sim.physics import stepper
 
 SMOOTH = ['gravity', 'buoyancy', 'drag', 'lift', 'added_mass']
+WITH_WAVES = SMOOTH + ['wave_radiation']
 RADIUS, DENSITY = 0.2, 600.0
 SPHERE = {'mass': DENSITY * 4.0 / 3.0 * np.pi * RADIUS**3, 'radius': RADIUS,
           'drag_coefficient': 0.8, 'lift_coefficient': 0.6, 'lift_area': 0.1,
@@ -65,6 +66,19 @@ def test_every_integrator_with_every_smooth_effect_follows_the_reference(integra
     assert errors[0] / errors[1] > least_ratio, errors  # it converges at its order
 
 
+@pytest.mark.parametrize('submerged_volume', ['cap', 'linear'])
+@pytest.mark.parametrize('integrator', list(INTEGRATORS))
+def test_every_integrator_with_wave_radiation_too_follows_the_reference(integrator,
+                                                                        submerged_volume):
+    """At first order at least: where a sphere first touches the water the force of the
+    water it takes on switches on at once (the added mass grows from nothing with a finite
+    slope: a water-entry impact), which no method steps across above first order."""
+    errors = [largest_error(integrator, WITH_WAVES, submerged_volume, rate)
+              for rate in (200, 800)]
+    assert errors[1] < 2e-3, errors
+    assert errors[0] / errors[1] > 3.0, errors
+
+
 @pytest.mark.parametrize('effects', [[], ['gravity'], ['gravity', 'buoyancy'], ['drag'],
                                      ['gravity', 'drag', 'lift'],
                                      ['gravity', 'buoyancy', 'added_mass']],
@@ -79,7 +93,7 @@ def many_spheres(integrator, count, seed=3):
     """count spheres of every size and density, thrown about a pool with every effect."""
     rng = np.random.default_rng(seed)
     names = [f's{i}' for i in range(count)]
-    params = {'sphere_names': names, 'effects': SMOOTH + ['contact', 'friction'],
+    params = {'sphere_names': names, 'effects': WITH_WAVES + ['contact', 'friction'],
               'integrator': integrator,
               'gravity': list(rng.normal(size=3) * 2.0 + [0.0, 0.0, -9.0]),
               'air.wind': list(rng.normal(size=3)), 'water.current': list(rng.normal(size=3)),

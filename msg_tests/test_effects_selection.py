@@ -23,7 +23,7 @@ from scenes import one_sphere
 EFFECT_OF = {'gravity_force': 'gravity', 'buoyancy_force': 'buoyancy',
              'buoyancy_stiffness': 'buoyancy', 'lift_force': 'lift', 'drag_factors': 'drag',
              'drag_force': 'drag', 'added_mass': 'added_mass',
-             'submerged_fraction': 'water fraction'}
+             'heave_radiation': 'wave_radiation', 'submerged_fraction': 'water fraction'}
 counts = {}
 for name, effect in EFFECT_OF.items():
     def counted(*args, _original=getattr(effects, name), _effect=effect):
@@ -53,8 +53,12 @@ CASES = [
     (['buoyancy'], {'buoyancy', 'water fraction'}),
     (['gravity', 'lift'], {'gravity', 'lift', 'water fraction'}),
     (['gravity', 'added_mass'], {'gravity', 'added_mass', 'water fraction'}),
-    (['gravity', 'buoyancy', 'drag', 'lift', 'added_mass', 'contact', 'friction'],
-     {'gravity', 'buoyancy', 'lift', 'drag', 'added_mass', 'water fraction'}),
+    (['gravity', 'wave_radiation'], {'gravity', 'wave_radiation'}),
+    (['gravity', 'buoyancy', 'drag', 'wave_radiation', 'contact', 'friction'],
+     {'gravity', 'buoyancy', 'drag', 'wave_radiation', 'water fraction'}),
+    (['gravity', 'buoyancy', 'drag', 'lift', 'added_mass', 'wave_radiation', 'contact',
+      'friction'],
+     {'gravity', 'buoyancy', 'lift', 'drag', 'added_mass', 'wave_radiation', 'water fraction'}),
 ]
 INTEGRATOR_NAMES = ['linearly_implicit_euler', 'rk4', 'explicit_euler', 'semi_implicit_euler',
                     'velocity_verlet']

@@ -14,7 +14,7 @@ def test_without_a_params_file_it_runs_the_seeds_pool_with_every_key_declared():
     with Harness() as ros:
         assert ros.sim.get_parameter('sphere_names').value == ['cork', 'steel', 'ice']
         assert ros.sim.get_parameter('effects').value == [
-            'gravity', 'buoyancy', 'drag', 'contact', 'friction']
+            'gravity', 'buoyancy', 'drag', 'wave_radiation', 'contact', 'friction']
         assert ros.sim.get_parameter('steel.drag_coefficient').value == 0.47
         assert list(ros.sim.get_parameter('pool.min').value) == [-4.0, -4.0, -4.0]
         assert ros.sim.get_parameter('integrator').value == 'linearly_implicit_euler'
@@ -41,7 +41,7 @@ def test_a_bad_parameter_stops_the_node_naming_the_key(params, message):
 def test_an_empty_effects_list_arrives_unset_and_means_nothing_runs_but_external_forces():
     params = {'effects': [], 'real_time_factor': 0.0}
     with Harness(params) as ros:
-        assert ros.sim.simulation.stepper.configuration[1] == (False,) * 5 + (True, True)
+        assert ros.sim.simulation.stepper.configuration[1] == (False,) * 6 + (True, True)
         poses = ros.collect(PoseArray, 'poses')
         assert ros.spin_until(lambda: ros.sim.simulation.time > 1.0 and poses)
         # No gravity: everything floats where it was put.

@@ -19,7 +19,7 @@ import math
 from hypothesis import given, HealthCheck, settings, strategies as st
 import numpy as np
 
-from pool_sim.physics import Scene, Simulation
+from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation
 
 POOL = 10.0  # half-width of the pool, m: room for a 2 m sphere anywhere
 
@@ -51,7 +51,7 @@ def spheres(draw, gravity_directions):
     }
 
 
-def scene_of(case, effects=('gravity', 'buoyancy', 'drag', 'contact', 'friction')):
+def scene_of(case, effects=DEFAULT_EFFECTS):
     return Scene({
         'sphere_names': ['ball'], 'ball.mass': case['mass'], 'ball.radius': case['radius'],
         'ball.position': case['position'], 'ball.velocity': case['velocity'],
@@ -106,6 +106,7 @@ def test_any_gravity_direction_stays_finite_and_inside_the_pool(case):
 @SETTINGS
 @given(spheres(unit_vectors()))
 def test_with_lift_and_added_mass_it_stays_finite_and_inside_the_pool(case):
-    scene = scene_of(case, ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass', 'contact',
-                            'friction')).with_values(**{'ball.lift_coefficient': 1.2})
+    scene = scene_of(case, ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass',
+                            'wave_radiation', 'contact', 'friction')).with_values(
+        **{'ball.lift_coefficient': 1.2})
     run_ten_seconds(Simulation(scene))

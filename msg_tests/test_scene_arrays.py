@@ -17,7 +17,7 @@ VECTOR_KEYS = [key for key, spec in SPHERE_KEYS.items() if spec.kind == 'vector'
 # Every array of a Spheres, the derived ones and the lift area's flag included.
 SPHERE_FIELDS = ('position', 'velocity', 'mass', 'radius', 'drag_coefficient', 'lift_area',
                  'lift_normal', 'lift_coefficient', 'external_force', 'volume',
-                 'cross_section', 'lift_area_follows_radius')
+                 'cross_section', 'lift_area_follows_radius', 'lift_slope', 'stall_angle')
 NAMES = ['a', 'b', 'cork', 'd', 'e']
 
 
@@ -56,6 +56,7 @@ def sphere_values(count):
         'mass': number, 'radius': radius, 'drag_coefficient': st.floats(0.0, 10.0),
         'lift_area': st.one_of(st.floats(0.0, 1e6), st.integers(0, 10)),
         'lift_coefficient': st.floats(-10.0, 10.0), 'lift_normal': normal,
+        'lift_slope': st.floats(0.0, 100.0), 'stall_angle': st.floats(0.01, 1.5),
         'position': st.tuples(coordinate, coordinate, coordinate),
         'velocity': st.tuples(*[st.floats(-1e4, 1e4)] * 3),
     }
@@ -157,7 +158,7 @@ def test_a_params_file_may_give_the_spheres_as_arrays(tmp_path):
         '      position: [-2.0, 0.0, 3.7, 0, 0, 3.8, 2.0, 0.0, 3.75]\n'
         '    ice:\n'
         '      drag_coefficient: 0.3\n'
-        '    effects: [gravity, buoyancy, drag, contact, friction]\n'
+        '    effects: [gravity, buoyancy, drag, wave_radiation, contact, friction]\n'
         '    contact:\n'
         '      restitution: 0.5\n'
         '      static_friction: 0.6\n'

@@ -68,4 +68,4 @@ def test_the_node_warns_at_startup_when_the_rate_is_beyond_the_bound(capfd, inte
     log = capfd.readouterr().err
     assert (f'{integrator} is unstable at {rate_hz:g} Hz' in log) == warns, log
     if warns:
-        assert 'needs a step under 30.9 ms' in log
+        assert 'needs a step under 28.6 ms' in log

@@ -10,7 +10,8 @@ loop is built. What a sphere is to these functions:
   water_density, current_x, current_y, current_z, surface_z): m/s^2, kg/m^3, m/s, m.
 - `body`: one sphere's properties, a flat tuple (mass kg, radius m, volume m^3,
   cross_section m^2, drag_coefficient, lift_coefficient, lift_area m^2, lift normal
-  (3, unit), external force (3, N, world axes), 1/radius 1/m).
+  (3, unit), external force (3, N, world axes), 1/radius 1/m, lift_slope 1/rad,
+  stall_angle rad).
 - positions and velocities are 3-tuples, m and m/s; forces 3-tuples, N.
 
 Forces from each medium are weighted by the fraction of the sphere's volume inside it:
@@ -18,18 +19,31 @@ Forces from each medium are weighted by the fraction of the sphere's volume insi
 """
 import math
 
+import numba
+import numpy as np
+
 from .media import compiled, submerged_fraction, submerged_fraction_slope, \
     waterline_volume_slope
+from .wave_table import ADDED_MASS, ADDED_MASS_SLOPE, DAMPING_RATE, DRAFTS, MASS_AXIS
 
-EFFECTS = ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass', 'contact', 'friction')
-DEFAULT_EFFECTS = ('gravity', 'buoyancy', 'drag', 'contact', 'friction')
+EFFECTS = ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass', 'wave_radiation', 'contact',
+           'friction')
+DEFAULT_EFFECTS = ('gravity', 'buoyancy', 'drag', 'wave_radiation', 'contact', 'friction')
 # The smooth effects, in the order of effect_flags' tuple (then the submerged-volume model).
-SMOOTH_EFFECTS = ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass')
+SMOOTH_EFFECTS = ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass', 'wave_radiation')
+# Positions in effect_flags' tuple.
+WAVE_RADIATION, CAP, SCALAR = 5, 6, 7
+HALF_PI = 0.5 * math.pi
+# The wave table's grid: drafts s = d/r and t = mu/(1 + mu), both evenly spaced.
+_DRAFT_CELLS, _MASS_CELLS = DRAFTS.size - 1, MASS_AXIS.size - 1
+_CELLS_PER_DRAFT = _DRAFT_CELLS / (DRAFTS[-1] - DRAFTS[0])
+assert DRAFTS[0] == 0.0 and MASS_AXIS[0] == 0.0 and MASS_AXIS[-1] == 1.0
 
 
 def effect_flags(effects, submerged_volume='cap', scalar=True):
     """The compile-time tuple the compiled functions branch on: (gravity, buoyancy, drag,
-    lift, added_mass, cap, scalar) as bools; cap is False for the linear submerged volume;
+    lift, added_mass, wave_radiation, cap, scalar) as bools; cap is False for the linear
+    submerged volume;
     scalar (the plain loop, not the vectorised one) lets a function skip work a sphere does
     not need by a branch, which a vectorised loop would pay for on both sides."""
     unknown = set(effects) - set(EFFECTS)
@@ -41,11 +55,14 @@ def effect_flags(effects, submerged_volume='cap', scalar=True):
                                                                  bool(scalar))
 
 
+_LISTED_SCALAR = effect_flags(['wave_radiation'])
+
+
 @compiled
 def water_fraction(listed, env, body, z):
     """Fraction of the sphere under water; 0 without computing it when no listed effect
     needs it (gravity alone, or nothing)."""
-    gravity, buoyancy, drag, lift, added, cap, scalar = listed
+    gravity, buoyancy, drag, lift, added, waves, cap, scalar = listed
     if not (buoyancy or drag or lift or added):
         return 0.0
     return submerged_fraction(cap, z, body[1], body[13], env[11])
@@ -98,17 +115,38 @@ def drag_force(env, factor_air, factor_water, velocity):
 
 
 @compiled
+def lift_coefficient(body, attack):
+    """|C_l| at the angle of attack `attack` (rad, 0 = edge-on .. pi/2 = face-on): the
+    lift-curve slope lift_slope * attack, capped at |lift_coefficient| (the most the surface
+    gives), up to stall_angle; past the stall it falls linearly to zero face-on."""
+    slope, stall, peak = body[14], body[15], abs(body[5])
+    if attack <= stall:
+        rising = slope * attack
+        return rising if rising < peak else peak
+    at_stall = slope * stall
+    at_stall = at_stall if at_stall < peak else peak
+    return at_stall * (HALF_PI - attack) / (HALF_PI - stall)
+
+
+@compiled
 def medium_lift(density, fraction, body, rx, ry, rz):
-    """1/2*rho*C_l*A*|w|^2*fraction along the part of the lifting normal perpendicular to the
-    relative velocity w = (rx, ry, rz); none along w itself, where that plane is undefined."""
+    """1/2*rho*C_l(alpha)*A*|w|^2*fraction, perpendicular to the sphere's velocity w =
+    (rx, ry, rz) relative to the medium, in the plane of w and the lifting normal n.
+
+    alpha is the angle between w and the lifting surface: 0 edge-on (no lift), pi/2
+    face-on (no lift: past the stall). The flow pushes the surface away from the side it
+    meets, so the lift points along the part of n across w, signed against n.w (and by the
+    sign of lift_coefficient): it changes smoothly through both ends, never flips."""
     nx, ny, nz = body[7], body[8], body[9]
     speed_sq = rx * rx + ry * ry + rz * rz
     along = nx * rx + ny * ry + nz * rz
-    # |w|^2 * (n - (n.w^)w^): perpendicular to w, in the plane of n and w.
+    # |w|^2 * (n - (n.w^)w^): perpendicular to w, in the plane of n and w; |w|^2 cos(alpha) long.
     dx, dy, dz = nx * speed_sq - along * rx, ny * speed_sq - along * ry, nz * speed_sq - along * rz
     length = math.sqrt(dx * dx + dy * dy + dz * dz)
-    magnitude = 0.5 * density * fraction * body[5] * body[6] * speed_sq
-    scale = magnitude / length if length > 1e-300 else 0.0
+    attack = math.atan2(abs(along) * math.sqrt(speed_sq), length)
+    magnitude = 0.5 * density * fraction * body[6] * speed_sq * lift_coefficient(body, attack)
+    signed = -magnitude if (along > 0.0) == (body[5] > 0.0) else magnitude
+    scale = signed / length if length > 0.0 else 0.0
     return dx * scale, dy * scale, dz * scale
 
 
@@ -120,10 +158,10 @@ def lift_force(listed, env, body, fraction, velocity):
     vx, vy, vz = velocity
     ax = ay = az = wx = wy = wz = 0.0
     # The constant first: in the vectorised build the condition is then no branch at all.
-    if not listed[6] or fraction < 1.0:
+    if not listed[SCALAR] or fraction < 1.0:
         ax, ay, az = medium_lift(env[3], 1.0 - fraction, body, vx - env[4], vy - env[5],
                                  vz - env[6])
-    if not listed[6] or fraction > 0.0:
+    if not listed[SCALAR] or fraction > 0.0:
         wx, wy, wz = medium_lift(env[7], fraction, body, vx - env[8], vy - env[9], vz - env[10])
     return ax + wx, ay + wy, az + wz
 
@@ -154,6 +192,87 @@ def explicit_force(listed, env, body, velocity, fraction):
 
 
 @compiled
+def heave_radiation(listed, env, body, z):
+    """(added kg, added_slope kg/m, damping kg/s) of the waves a sphere crossing the surface
+    radiates as it heaves: linear potential flow's added mass A33 and radiation damping B33
+    at its draft, at the complex natural frequency of its heave there (wave_table.py, from
+    Capytaine's BEM; the added mass is tapered to zero over the last 0.2 r before the sphere
+    is wholly under). added_slope is dA33/dz. All zero off the surface, or without water.
+
+    The force is -A33 z'' - B33 (z' - current_z), and, while the sphere takes on water to
+    carry (dA33/dt > 0), -dA33/dt z': it shares its momentum with that water, as at a
+    water entry (von Karman). Water it stops carrying keeps its energy: it leaves as waves,
+    pushing nothing back (which would fling a light sphere out with the energy of water
+    thousands of times its mass). So 1/2 (m + A33) z'^2 + potential, the water carried
+    counted, never grows.
+    """
+    radius, inverse_radius, density = body[1], body[13], env[7]
+    draft = 1.0 + (env[11] - z) * inverse_radius  # s = d / r: 0 touching, 2 wholly under
+    inside = (draft > 0.0) & (draft < 2.0)  # false for NaN too
+    if listed[SCALAR] and not inside:
+        return 0.0, 0.0, 0.0
+    # In (s, t = mu / (1 + mu)), mu = m / (rho r^3): the added mass a cubic Hermite spline
+    # in s (its slope continuous, so the force of the water taken on has no jumps), linear
+    # in t; the damping bilinear. Clamped before the index is taken, NaN to 0.
+    scale = density * radius * radius * radius
+    row = draft * _CELLS_PER_DRAFT
+    row = row if row > 0.0 else 0.0
+    row = row if row < _DRAFT_CELLS else float(_DRAFT_CELLS)
+    i = min(int(row), _DRAFT_CELLS - 1)
+    column = body[0] / (body[0] + scale) * _MASS_CELLS
+    column = column if column > 0.0 else 0.0
+    column = column if column < _MASS_CELLS else float(_MASS_CELLS)
+    j = min(int(column), _MASS_CELLS - 1)
+    u, w = row - i, column - j
+    low = ADDED_MASS[i, j] + w * (ADDED_MASS[i, j + 1] - ADDED_MASS[i, j])
+    high = ADDED_MASS[i + 1, j] + w * (ADDED_MASS[i + 1, j + 1] - ADDED_MASS[i + 1, j])
+    # Slopes per cell (ds = one cell): the nodes' dA/ds over the cells per unit of s.
+    cell = 1.0 / _CELLS_PER_DRAFT
+    slope_low = cell * (ADDED_MASS_SLOPE[i, j] + w * (ADDED_MASS_SLOPE[i, j + 1]
+                                                      - ADDED_MASS_SLOPE[i, j]))
+    slope_high = cell * (ADDED_MASS_SLOPE[i + 1, j] + w * (ADDED_MASS_SLOPE[i + 1, j + 1]
+                                                           - ADDED_MASS_SLOPE[i + 1, j]))
+    rate_low = DAMPING_RATE[i, j] + w * (DAMPING_RATE[i, j + 1] - DAMPING_RATE[i, j])
+    rate_high = DAMPING_RATE[i + 1, j] + w * (DAMPING_RATE[i + 1, j + 1]
+                                              - DAMPING_RATE[i + 1, j])
+    on = 1.0 if inside else 0.0
+    # Hermite basis on u in [0, 1]
+    u2 = u * u
+    u3 = u2 * u
+    value = ((2.0 * u3 - 3.0 * u2 + 1.0) * low + (u3 - 2.0 * u2 + u) * slope_low
+             + (3.0 * u2 - 2.0 * u3) * high + (u3 - u2) * slope_high)
+    per_cell = ((6.0 * u2 - 6.0 * u) * (low - high) + (3.0 * u2 - 4.0 * u + 1.0) * slope_low
+                + (3.0 * u2 - 2.0 * u) * slope_high)
+    added = on * scale * value
+    # d/dz = d/du * du/ds * ds/dz, ds/dz = -1/r
+    added_slope = -on * scale * per_cell * _CELLS_PER_DRAFT * inverse_radius
+    damping = on * scale * math.sqrt(abs(env[2]) * inverse_radius) * (
+        rate_low + u * (rate_high - rate_low))
+    return added, added_slope, damping
+
+
+@numba.njit(cache=True, error_model='numpy')
+def heave_added_masses(env, mass, radius, z):
+    """(n,) kg: heave_radiation's added mass of each sphere (mass kg, radius m, centre
+    height z m, all (n,)), for the energy of the water the spheres carry."""
+    added = np.zeros(mass.shape[0])
+    for i in range(mass.shape[0]):
+        body = (mass[i], radius[i], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                1.0 / radius[i], 0.0, 0.0)
+        added[i] = heave_radiation(_LISTED_SCALAR, env, body, z[i])[0]
+    return added
+
+
+@compiled
+def water_taken_on(listed, env, body, inertia_z, added, z, vz):
+    """v_z (m/s) of a sphere of vertical inertia inertia_z (kg, with the added mass `added`
+    it carried) moved to height z (m) at v_z = vz: where it carries more water there, it
+    shares its momentum with the water taken on; where less, v_z stays (heave_radiation)."""
+    taken_on = heave_radiation(listed, env, body, z)[0] - added
+    return vz * inertia_z / (inertia_z + taken_on) if taken_on > 0.0 else vz
+
+
+@compiled
 def acceleration(listed, env, body, position, velocity):
     """m/s^2 of every listed smooth force and the external force: what the explicit
     integrators step."""
@@ -164,6 +283,12 @@ def acceleration(listed, env, body, position, velocity):
         dx, dy, dz = drag_force(env, factor_air, factor_water, velocity)
         fx, fy, fz = fx + dx, fy + dy, fz + dz
     resisting = inertia(listed, env, body, fraction)
+    if listed[WAVE_RADIATION]:
+        added, added_slope, damping = heave_radiation(listed, env, body, position[2])
+        vz = velocity[2]
+        taking_on = added_slope * vz  # dA33/dt, kg/s
+        fz -= (taking_on if taking_on > 0.0 else 0.0) * vz + damping * (vz - env[10])
+        return fx / resisting, fy / resisting, fz / (resisting + added)
     return fx / resisting, fy / resisting, fz / resisting
 
 

@@ -8,8 +8,8 @@ resolved afterwards, outside them. The explicit ones see the forces only through
 """
 import math
 
-from .effects import acceleration, buoyancy_stiffness, drag_factors, explicit_force, \
-    inertia, water_fraction
+from .effects import acceleration, buoyancy_stiffness, CAP, drag_factors, explicit_force, \
+    heave_radiation, inertia, water_fraction, water_taken_on, WAVE_RADIATION
 from .media import compiled
 
 
@@ -76,7 +76,7 @@ def rk4(listed, env, body, position, velocity, dt):
 def linearly_implicit_euler(listed, env, body, position, velocity, dt):
     """The default: stable at any step for stiff drag, light spheres and a stiff float.
 
-    The two stiff parts are taken implicitly and everything else explicitly:
+    The stiff parts are taken implicitly and everything else explicitly:
     - quadratic drag as gain * (v_new - flow), the gain taken at the larger of the current
       relative speed and the speed the step will end with (the closed-form root of
       m*s + dt*c*s^2 = |m*v_rel + dt*F|), so a sphere starting from rest is damped too;
@@ -85,10 +85,15 @@ def linearly_implicit_euler(listed, env, body, position, velocity, dt):
       second order) when the spring is resolved to backward Euler (w = 1: L-stable) when it
       is not: w = 1/2 + h^2 / (2*(4 + h^2)), h = omega*dt, omega^2 = k/m. Below h = 0.3 it
       damps the float by < 0.04*omega*h^2 per second; at h = 6.7 it cuts the stiff mode to
-      0.16 per step.
+      0.16 per step;
+    - wave radiation's damping B33 (z' - current_z); its added mass A33 at the start
+      joins the vertical inertia m_z; where the step ends carrying more, the sphere shares
+      its momentum with the water taken on (effects.water_taken_on), exactly for what
+      the step took on, so no step size or jump of A33 makes the water create energy.
     Positions advance with the mean velocity (weight w on z where the spring acts).
     Solving for v_new is a division per sphere:
         (m + dt*gain + w^2*dt^2*k) v_new = m*v + dt*(F + gain*flow) - w*(1-w)*dt^2*k*v
+    (m_z for m in z).
     Fixed points are exact: terminal velocity and floating draft carry no step error.
     First order with drag, second order for gravity and the float.
     """
@@ -97,7 +102,13 @@ def linearly_implicit_euler(listed, env, body, position, velocity, dt):
     fraction = water_fraction(listed, env, body, z)
     m = inertia(listed, env, body, fraction)
     fx, fy, fz = explicit_force(listed, env, body, velocity, fraction)
-    px, py, pz = m * vx + dt * fx, m * vy + dt * fy, m * vz + dt * fz
+    m_z, z_gain, added = m, 0.0, 0.0  # vertical inertia; what z's divisor has beyond x's
+    if listed[WAVE_RADIATION]:
+        added, added_slope, damping = heave_radiation(listed, env, body, z)
+        m_z += added
+        z_gain = dt * damping
+        fz += damping * env[10]
+    px, py, pz = m * vx + dt * fx, m * vy + dt * fy, m_z * vz + dt * fz
     horizontal = m  # the solve's divisor for x and y; z's gains the spring's part too
     if listed[2]:
         factor_air, factor_water = drag_factors(env, body, fraction)
@@ -118,19 +129,22 @@ def linearly_implicit_euler(listed, env, body, position, velocity, dt):
         py += dt * (gain_air * wy + gain_water * cy)
         pz += dt * (gain_air * wz + gain_water * cz)
         horizontal += dt * (gain_air + gain_water)
-    vertical = horizontal
+    vertical = horizontal + (m_z - m) + z_gain
     weight = 0.5
     inverse_horizontal = 1.0 / horizontal
     if listed[1]:
-        predicted_z = z + 0.5 * dt * (vz + pz * inverse_horizontal)
-        spring = dt * dt * buoyancy_stiffness(listed[5], env, body, z, predicted_z)
-        h_squared = spring / m
+        predicted_z = z + 0.5 * dt * (vz + (pz / vertical if listed[WAVE_RADIATION]
+                                            else pz * inverse_horizontal))
+        spring = dt * dt * buoyancy_stiffness(listed[CAP], env, body, z, predicted_z)
+        h_squared = spring / m_z
         weight = 0.5 + 0.5 * h_squared / (4.0 + h_squared)
         pz -= weight * (1.0 - weight) * spring * vz
         vertical += weight * weight * spring
     nvx, nvy, nvz = px * inverse_horizontal, py * inverse_horizontal, pz / vertical
-    return (x + 0.5 * dt * (vx + nvx), y + 0.5 * dt * (vy + nvy),
-            z + 0.5 * dt * (vz + nvz) + (weight - 0.5) * dt * (nvz - vz), nvx, nvy, nvz)
+    nz = z + 0.5 * dt * (vz + nvz) + (weight - 0.5) * dt * (nvz - vz)
+    if listed[WAVE_RADIATION]:
+        nvz = water_taken_on(listed, env, body, m_z, added, nz, nvz)
+    return x + 0.5 * dt * (vx + nvx), y + 0.5 * dt * (vy + nvy), nz, nvx, nvy, nvz
 
 
 INTEGRATORS = {

@@ -24,7 +24,8 @@ from .contact import ContactParameters
 from .effects import DEFAULT_EFFECTS, EFFECTS
 from .integrators import DEFAULT_INTEGRATOR, INTEGRATORS
 from .media import Environment, Medium, Pool
-from .spheres import (check_number, check_sphere_name, check_vector, InvalidInput,
+from .spheres import (check_number, check_sphere_name, check_vector, InvalidInput, LIFT_SLOPE,
+                      STALL_ANGLE,
                       LIFT_AREA_RANGE_M2, MASS_RANGE_KG, NAME_MAX_CHARACTERS, NAME_TOKEN,
                       named_few, RADIUS_RANGE_M, shortened, shown, Spheres)
 
@@ -71,6 +72,8 @@ FRICTION_RANGE = (0.0, 10.0)
 DRAG_COEFFICIENT_RANGE = (0.0, 10.0)  # a sphere 0.1-0.5, a flat plate ~1.2
 LIFT_COEFFICIENT_RANGE = (-10.0, 10.0)  # wings reach ~3
 LIFT_AREA_RANGE = LIFT_AREA_RANGE_M2  # m^2 (in spheres.py: set_lift_area checks it too)
+LIFT_SLOPE_RANGE = (0.0, 100.0)  # 1/rad: thin aerofoils 2 pi
+STALL_ANGLE_RANGE = (0.01, 1.5)  # rad: below pi/2, so the curve falls to 0 face-on
 PHYSICS_RATE_RANGE = (1.0, 1e5)  # Hz: steps from 1 s to 10 us
 PUBLISH_RATE_RANGE = (0.01, 1e4)  # Hz of simulated time
 REAL_TIME_FACTOR_RANGE = (0.0, 1e4)  # 0 = as fast as the machine goes
@@ -153,7 +156,13 @@ SPHERE_KEYS = {
                        'length from 1e-6 up; normalised)', -1e3, 1e3, '',
                        (lambda v: np.linalg.norm(np.asarray(v, dtype=float), axis=-1) >= 1e-6,
                         'a non-zero vector')),
-    'lift_coefficient': Key('number', 0.0, 'lift coefficient C_l', *LIFT_COEFFICIENT_RANGE),
+    'lift_coefficient': Key('number', 0.0, 'the most lift coefficient C_l the surface gives '
+                            '(0: no lift; negative: lifts the other way)',
+                            *LIFT_COEFFICIENT_RANGE),
+    'lift_slope': Key('number', LIFT_SLOPE, 'lift-curve slope dC_l/dalpha up to the stall, '
+                      '1/rad', *LIFT_SLOPE_RANGE, '1/rad'),
+    'stall_angle': Key('number', STALL_ANGLE, 'angle of attack of the stall, rad (past it '
+                       'C_l falls to 0 face-on)', *STALL_ANGLE_RANGE, 'rad'),
 }
 # Keys of the node's that may change while it runs; the physics never reads them.
 LOCKSTEP_KEYS = ('lockstep', 'lockstep_inputs', 'lockstep_timeout')
@@ -631,4 +640,5 @@ class Scene:
             lift_normal=np.ascontiguousarray(normal / np.linalg.norm(normal, axis=0)),
             lift_coefficient=arrays['lift_coefficient'].copy(),
             external_force=np.zeros((3, len(self.sphere_names))),
-            lift_area_follows_radius=~self.lift_area_given)
+            lift_area_follows_radius=~self.lift_area_given,
+            lift_slope=arrays['lift_slope'].copy(), stall_angle=arrays['stall_angle'].copy())

@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 
+from .effects import heave_added_masses
 from .media import cap_volume_integral, linear_volume_integral
 from .scene import LOCKSTEP_KEYS
 from .spheres import InvalidInput, shown
@@ -81,7 +82,8 @@ class Simulation:
         arrays = (spheres.position, spheres.velocity, spheres.mass, spheres.radius,
                   spheres.volume, spheres.cross_section, spheres.drag_coefficient,
                   spheres.lift_coefficient, spheres.lift_area, spheres.lift_normal,
-                  spheres.external_force, *self._constants)
+                  spheres.external_force, spheres.lift_slope, spheres.stall_angle,
+                  *self._constants)
         put_back = self.stepper.run(arrays, self._scratch, int(steps), dt)
         if put_back:
             failed = self._scratch[3]
@@ -174,24 +176,31 @@ class Simulation:
         return self.spheres.position[:, i].copy(), self.spheres.velocity[:, i].copy()
 
     def mechanical_energy(self):
-        """(n,) J: kinetic + gravitational + buoyancy potential, for vertical gravity.
+        """(n,) J: kinetic + gravitational + buoyancy potential, for vertical gravity, and
+        with wave_radiation the kinetic energy 1/2 A33 vz^2 of the water a sphere carries
+        as it heaves at the surface.
 
         The buoyancy potential U_b(z) has -dU_b/dz = the buoyant force, built from the
-        integral of the submerged volume. Added mass is not counted: this is the energy of
-        the sphere alone, which the fluid's inertia can only take from.
+        integral of the submerged volume. added_mass's 1/2 rho V_sub is not counted.
         """
-        return mechanical_energy(self.environment, self.spheres, 'buoyancy' in self.scene[
-            'effects'], 'gravity' in self.scene['effects'], self.submerged_volume)
+        effects = self.scene['effects']
+        return mechanical_energy(self.environment, self.spheres, 'buoyancy' in effects,
+                                 'gravity' in effects, self.submerged_volume,
+                                 'wave_radiation' in effects)
 
 
 def mechanical_energy(env, spheres, with_buoyancy=True, with_gravity=True,
-                      submerged_volume='cap'):
+                      submerged_volume='cap', with_wave_radiation=False):
     """(n,) J of each sphere; see Simulation.mechanical_energy.
 
     submerged_volume: 'cap' or 'linear', the model whose buoyancy the potential integrates.
     """
     kinetic = 0.5 * spheres.mass * np.einsum('ij,ij->j', spheres.velocity, spheres.velocity)
     energy = kinetic
+    if with_wave_radiation:
+        carried = heave_added_masses(environment_array(env), spheres.mass, spheres.radius,
+                                     np.ascontiguousarray(spheres.position[2]))
+        energy = energy + 0.5 * carried * spheres.velocity[2]**2
     if with_gravity:
         energy = energy - spheres.mass * (env.gravity @ spheres.position)
     if with_buoyancy:

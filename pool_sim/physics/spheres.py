@@ -25,6 +25,10 @@ MASS_RANGE_KG = (1e-6, 1e9)  # a milligram to a large ship
 RADIUS_RANGE_M = (1e-4, 1e3)  # a tenth of a millimetre to a kilometre (it must fit the pool)
 # m^2: none to 10 km^2, beyond pi r^2 of the largest sphere (r = 1e3 m), which it follows
 LIFT_AREA_RANGE_M2 = (0.0, 1e7)
+# The lift curve (effects.lift_coefficient): thin-aerofoil theory's slope, 2 pi per radian,
+# and a stall at 15 degrees, where thin plates and most aerofoils stall.
+LIFT_SLOPE = 2.0 * math.pi  # 1/rad
+STALL_ANGLE = math.radians(15.0)  # rad
 FORCE_LIMIT_N = 1e9  # per component: far beyond any thruster (a Saturn V lifts off on 3.5e7)
 # How many names a message lists before it counts the rest, so that a reply or a log line
 # stays short with thousands of spheres.
@@ -135,6 +139,8 @@ class Spheres:
     lift_normal: (3, n) unit vectors.  external_force: (3, n) N, world frame.
     lift_area_follows_radius: (n,) bool: where True, set_radius keeps lift_area = pi r^2
     (the scene did not give the area); set_lift_area ends it. All False when not given.
+    lift_slope: (n,) 1/rad, the lift curve's slope, and stall_angle: (n,) rad, where it
+    stalls (see effects.lift_coefficient); LIFT_SLOPE and STALL_ANGLE when not given.
     volume (m^3) and cross_section (m^2) are derived from radius and kept in step by set_radius.
     """
 
@@ -149,9 +155,15 @@ class Spheres:
     lift_coefficient: np.ndarray
     external_force: np.ndarray
     lift_area_follows_radius: np.ndarray = None
+    lift_slope: np.ndarray = None
+    stall_angle: np.ndarray = None
 
     def __post_init__(self):
         self.index = {name: i for i, name in enumerate(self.names)}
+        if self.lift_slope is None:
+            self.lift_slope = np.full(len(self.names), LIFT_SLOPE)
+        if self.stall_angle is None:
+            self.stall_angle = np.full(len(self.names), STALL_ANGLE)
         self.volume = 4.0 / 3.0 * np.pi * self.radius**3
         self.cross_section = np.pi * self.radius**2
         if self.lift_area_follows_radius is None:
@@ -164,8 +176,8 @@ class Spheres:
     def copy(self) -> 'Spheres':
         """An independent copy, bit for bit: the derived arrays are copied, not recomputed
         (a vectorised power need not round as the scalar one set_radius uses)."""
-        copied = Spheres(self.names, *(getattr(self, f).copy() for f in _ARRAY_FIELDS),
-                         self.lift_area_follows_radius.copy())
+        copied = Spheres(self.names, **{f: getattr(self, f).copy() for f in _ARRAY_FIELDS},
+                         lift_area_follows_radius=self.lift_area_follows_radius.copy())
         for field in _DERIVED_FIELDS:
             setattr(copied, field, getattr(self, field).copy())
         return copied
@@ -237,5 +249,6 @@ class Spheres:
 
 
 _ARRAY_FIELDS = ('position', 'velocity', 'mass', 'radius', 'drag_coefficient', 'lift_area',
-                 'lift_normal', 'lift_coefficient', 'external_force')
+                 'lift_normal', 'lift_coefficient', 'external_force', 'lift_slope',
+                 'stall_angle')
 _DERIVED_FIELDS = ('volume', 'cross_section')

@@ -18,6 +18,7 @@ import numpy as np
 from .integrators import INTEGRATORS
 from .media import compiled
 from .stepper import SOURCE_DIGEST
+from .wave_table import DAMPING_RATE, MASS_AXIS
 
 UNCONDITIONALLY_STABLE = frozenset({'linearly_implicit_euler'})
 
@@ -46,8 +47,10 @@ def sphere_stiffness(scene, spheres=None, indices=None):
     inertia = mass + (0.5 * water * volume if 'added_mass' in effects else 0.0)
     omega_sq = ((water - air) * gravity * area / inertia if 'buoyancy' in effects
                 else np.zeros_like(mass))
+    wave_rate = (wave_damping_rate(mass, radius, water, gravity, inertia)
+                 if 'wave_radiation' in effects else np.zeros_like(mass))
     if 'drag' not in effects:
-        return omega_sq, np.zeros_like(mass)
+        return omega_sq, wave_rate
     net_weight = np.abs(mass - water * volume) * gravity
     terminal = np.sqrt(2.0 * net_weight / np.maximum(water * drag_coefficient * area, 1e-300))
     fall = math.sqrt(2.0 * gravity * max(scene['pool.max'][2] - scene['water.surface_z'], 0.0))
@@ -55,7 +58,19 @@ def sphere_stiffness(scene, spheres=None, indices=None):
     # No drag coefficient, no damping: not 0 * an infinite reference speed (NaN).
     drag_rate = np.where(drag_coefficient > 0.0, water * drag_coefficient * area * speed
                          / inertia, 0.0)
-    return omega_sq, drag_rate
+    return omega_sq, drag_rate + wave_rate
+
+
+def wave_damping_rate(mass, radius, water, gravity, inertia):
+    """(n,) 1/s: wave radiation's B33 / inertia at the draft where it is largest (the table's
+    damping at each sphere's mass number, over every draft), its added mass left out."""
+    scale = water * radius**3
+    column = mass / (mass + scale) * (MASS_AXIS.size - 1)
+    j = np.minimum(column.astype(int), MASS_AXIS.size - 2)
+    weight = column - j
+    largest = np.max(DAMPING_RATE[:, j] * (1.0 - weight) + DAMPING_RATE[:, j + 1] * weight,
+                     axis=0)
+    return largest * scale * np.sqrt(gravity / radius) / inertia
 
 
 @compiled

@@ -30,7 +30,8 @@ import numba
 import numpy as np
 
 from .contact import resolve_contacts
-from .effects import effect_flags
+from .effects import effect_flags, heave_radiation, inertia, water_fraction, \
+    water_taken_on, WAVE_RADIATION
 from .integrators import explicit_euler, INTEGRATORS, linearly_implicit_euler, rk4, \
     semi_implicit_euler, velocity_verlet
 
@@ -41,7 +42,8 @@ _EXPLICIT_EULER, _SEMI_IMPLICIT_EULER = (INTEGRATOR_CODES['explicit_euler'],
                                          INTEGRATOR_CODES['semi_implicit_euler'])
 _VELOCITY_VERLET, _RK4 = INTEGRATOR_CODES['velocity_verlet'], INTEGRATOR_CODES['rk4']
 _LINEARLY_IMPLICIT_EULER = INTEGRATOR_CODES['linearly_implicit_euler']
-_SOURCES = ('media.py', 'effects.py', 'integrators.py', 'contact.py', 'stepper.py')
+_SOURCES = ('media.py', 'wave_table.py', 'effects.py', 'integrators.py', 'contact.py',
+            'stepper.py')
 SOURCE_DIGEST = hashlib.sha256(b''.join(
     (pathlib.Path(__file__).parent / name).read_bytes() for name in _SOURCES)).hexdigest()[:16]
 
@@ -79,8 +81,9 @@ def _compose(integrator_code, listed, has_contact, has_friction, parallel, sourc
     each_sphere = numba.prange if parallel else range
 
     def run_steps(position, velocity, mass, radius, volume, cross_section, drag_coefficient,
-                  lift_coefficient, lift_area, lift_normal, external_force, environment, pool,
-                  contact, spare_position, spare_velocity, flagged, failed, steps, dt):
+                  lift_coefficient, lift_area, lift_normal, external_force, lift_slope,
+                  stall_angle, environment, pool, contact, spare_position, spare_velocity,
+                  flagged, failed, steps, dt):
         """Take `steps` steps of dt s in place; returns how many times the step guard put a
         sphere back (flagged in failed (n,), which must be zero on entry).
 
@@ -114,7 +117,8 @@ def _compose(integrator_code, listed, has_contact, has_friction, parallel, sourc
                 body = (mass[i], radius[i], volume[i], cross_section[i], drag_coefficient[i],
                         lift_coefficient[i], lift_area[i], lift_normal[0, i],
                         lift_normal[1, i], lift_normal[2, i], external_force[0, i],
-                        external_force[1, i], external_force[2, i], 1.0 / radius[i])
+                        external_force[1, i], external_force[2, i], 1.0 / radius[i],
+                        lift_slope[i], stall_angle[i])
                 start = (old_position[0, i], old_position[1, i], old_position[2, i])
                 start_velocity = (old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
                 if integrator_code == _EXPLICIT_EULER:
@@ -157,6 +161,17 @@ def _compose(integrator_code, listed, has_contact, has_friction, parallel, sourc
                            old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
                     s, overflow = resolve_contacts(faces, contact_parameters, has_friction,
                                                    radius[i], old, state, dt)
+                    if listed[WAVE_RADIATION] and not overflow:
+                        # Moved by the contact to where it may carry more water.
+                        env = (gx, gy, gz, air_density, wind_x, wind_y, wind_z, water_density,
+                               current_x, current_y, current_z, surface_z)
+                        body = (mass[i], radius[i], volume[i], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                                0.0, 0.0, 0.0, 0.0, 1.0 / radius[i], 0.0, 0.0)
+                        added = heave_radiation(listed, env, body, state[2])[0]
+                        inertia_z = inertia(listed, env, body, water_fraction(
+                            listed, env, body, state[2])) + added
+                        s = (s[0], s[1], s[2], s[3], s[4],
+                             water_taken_on(listed, env, body, inertia_z, added, s[2], s[5]))
                     new_position[0, i], new_position[1, i], new_position[2, i] = s[0], s[1], s[2]
                     new_velocity[0, i], new_velocity[1, i], new_velocity[2, i] = s[3], s[4], s[5]
                 if overflow:
@@ -250,4 +265,5 @@ def body_tuple(spheres, index):
             float(spheres.cross_section[i]), float(spheres.drag_coefficient[i]),
             float(spheres.lift_coefficient[i]), float(spheres.lift_area[i]),
             *spheres.lift_normal[:, i].tolist(), *spheres.external_force[:, i].tolist(),
-            1.0 / float(spheres.radius[i]))
+            1.0 / float(spheres.radius[i]), float(spheres.lift_slope[i]),
+            float(spheres.stall_angle[i]))
