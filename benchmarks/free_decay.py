@@ -8,8 +8,10 @@ pool_at_rest.png.
 The reference is independent of pool_sim's step and of its table: the Cummins equation
 (m + A_inf) z'' + (K * z')(t) + C z = 0 with the retardation function K of the BEM's
 damping over all frequencies (results/wave_radiation/bem_heave.json, solved densely at
-these drafts), where pool_sim evaluates the added mass and damping at one frequency, the
-natural one, from its table.
+these drafts), where pool_sim takes one added mass and damping per draft and mass from its
+table (the one-mode oscillator with the Cummins equation's dominant root, found from the
+coarser table grid of the same BEM results: the comparison checks that reduction, its
+interpolation and pool_sim's step, not the BEM).
 """
 import math
 import pathlib

@@ -112,7 +112,8 @@ def memory_per_sphere():
     spheres = random_spheres(count)
     arrays = sum(getattr(spheres, f).nbytes for f in (
         'position', 'velocity', 'mass', 'radius', 'drag_coefficient', 'lift_area',
-        'lift_normal', 'lift_coefficient', 'external_force', 'volume', 'cross_section'))
+        'lift_normal', 'lift_coefficient', 'external_force', 'volume', 'cross_section',
+        'lift_slope', 'stall_angle'))
     names = sum(len(n) + 49 for n in spheres.names) + 8 * count  # str objects + tuple slots
     index = (spheres.index.__sizeof__())
     return arrays / count, (arrays + names + index) / count

@@ -81,10 +81,22 @@ def test_it_is_continuous_through_edge_on_and_face_on():
     assert np.all(np.isfinite(lift_at(90.0, speed=1e4)))
 
 
+def test_edge_on_there_is_no_lift_so_a_neutral_sphere_keeps_its_depth():
+    """The old lift had its full size edge-on: this sphere, of the water's own density,
+    moving level under water with its lifting surface level, was lifted out of its depth.
+    Edge-on there is no lift now, and nothing else moves it up or down."""
+    scene = one_sphere(0.1, 1000.0, position=(-3.0, 0.0, -2.0), velocity=(2.0, 0.0, 0.0),
+                       effects=['gravity', 'buoyancy', 'drag', 'lift'], air__density=0.0)
+    sim = Simulation(scene.with_values(**{'ball.lift_coefficient': 1.0}))
+    sim.advance(2.0)
+    assert sim.spheres.position[0, 0] > -2.5  # it moved on
+    assert sim.spheres.position[2, 0] == pytest.approx(-2.0, abs=1e-12)
+    assert sim.spheres.velocity[2, 0] == pytest.approx(0.0, abs=1e-12)
+
+
 def test_a_buoyant_sphere_thrown_with_lift_rises_and_floats():
-    """The old lift kept its full size with the surface face-on to the flow, so a buoyant
-    sphere thrown down at 10 m/s locked its velocity onto the normal and hung at a fixed
-    depth. Now lift fades past the stall, and buoyancy brings it up to float."""
+    """Thrown down through the surface at 10 m/s with a strong lift: it comes up and floats
+    at its draft, lift and all."""
     scene = one_sphere(0.1, 250.0, position=(0.0, 0.0, 1.0), velocity=(1.0, 0.0, -10.0),
                        effects=['gravity', 'buoyancy', 'drag', 'lift', 'wave_radiation',
                                 'contact', 'friction']).with_values(

@@ -44,6 +44,9 @@ def test_the_shipped_table_is_what_the_script_makes_of_the_bem_results():
     np.testing.assert_allclose(wave_table.MASS_AXIS, mass_axis, atol=1e-12)
     np.testing.assert_allclose(wave_table.ADDED_MASS, added, rtol=1e-5, atol=1e-9)
     np.testing.assert_allclose(wave_table.DAMPING_RATE, rate, rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(wave_table.ADDED_MASS_SLOPE,
+                               radiation_coefficients.added_mass_slopes(drafts, added),
+                               rtol=1e-5, atol=1e-5)
 
 
 @pytest.mark.parametrize('draft', free_decay.DRAFTS)

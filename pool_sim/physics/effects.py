@@ -195,7 +195,7 @@ def explicit_force(listed, env, body, velocity, fraction):
 def heave_radiation(listed, env, body, z):
     """(added kg, added_slope kg/m, damping kg/s) of the waves a sphere crossing the surface
     radiates as it heaves: linear potential flow's added mass A33 and radiation damping B33
-    at its draft, at the complex natural frequency of its heave there (wave_table.py, from
+    at its draft, at the dominant complex root of its heave there (wave_table.py, from
     Capytaine's BEM; the added mass is tapered to zero over the last 0.2 r before the sphere
     is wholly under). added_slope is dA33/dz. All zero off the surface, or without water.
 
@@ -212,8 +212,8 @@ def heave_radiation(listed, env, body, z):
     if listed[SCALAR] and not inside:
         return 0.0, 0.0, 0.0
     # In (s, t = mu / (1 + mu)), mu = m / (rho r^3): the added mass a cubic Hermite spline
-    # in s (its slope continuous, so the force of the water taken on has no jumps), linear
-    # in t; the damping bilinear. Clamped before the index is taken, NaN to 0.
+    # in s (its slope continuous inside the band, so the force of the water taken on jumps
+    # only where the band begins and ends), linear in t; the damping bilinear. Clamped before the index is taken, NaN to 0.
     scale = density * radius * radius * radius
     row = draft * _CELLS_PER_DRAFT
     row = row if row > 0.0 else 0.0
@@ -251,7 +251,7 @@ def heave_radiation(listed, env, body, z):
     return added, added_slope, damping
 
 
-@numba.njit(cache=True, error_model='numpy')
+@numba.njit(error_model='numpy')  # not cached: numba's cache would miss a new wave_table
 def heave_added_masses(env, mass, radius, z):
     """(n,) kg: heave_radiation's added mass of each sphere (mass kg, radius m, centre
     height z m, all (n,)), for the energy of the water the spheres carry."""

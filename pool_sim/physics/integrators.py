@@ -86,10 +86,11 @@ def linearly_implicit_euler(listed, env, body, position, velocity, dt):
       is not: w = 1/2 + h^2 / (2*(4 + h^2)), h = omega*dt, omega^2 = k/m. Below h = 0.3 it
       damps the float by < 0.04*omega*h^2 per second; at h = 6.7 it cuts the stiff mode to
       0.16 per step;
-    - wave radiation's damping B33 (z' - current_z); its added mass A33 at the start
-      joins the vertical inertia m_z; where the step ends carrying more, the sphere shares
+    - wave radiation's damping B33 (z' - current_z); its added mass A33, the lesser of the
+      step's start and where it is headed (z + dt z'), joins the vertical inertia m_z (the
+      water it leaves is left with its energy); where the step ends carrying more, it shares
       its momentum with the water taken on (effects.water_taken_on), exactly for what
-      the step took on, so no step size or jump of A33 makes the water create energy.
+      the step took on: the water carried gives the sphere no energy.
     Positions advance with the mean velocity (weight w on z where the spring acts).
     Solving for v_new is a division per sphere:
         (m + dt*gain + w^2*dt^2*k) v_new = m*v + dt*(F + gain*flow) - w*(1-w)*dt^2*k*v
@@ -105,6 +106,10 @@ def linearly_implicit_euler(listed, env, body, position, velocity, dt):
     m_z, z_gain, added = m, 0.0, 0.0  # vertical inertia; what z's divisor has beyond x's
     if listed[WAVE_RADIATION]:
         added, added_slope, damping = heave_radiation(listed, env, body, z)
+        # Water the sphere will have left by the step's end (as predicted) is dropped first,
+        # keeping v_z: carried through the step, its momentum would push the sphere on.
+        ahead = heave_radiation(listed, env, body, z + dt * vz)[0]
+        added = ahead if ahead < added else added
         m_z += added
         z_gain = dt * damping
         fz += damping * env[10]

@@ -70,7 +70,7 @@ LENGTH_LIMIT = 1e4  # m per coordinate of the pool, the surface and positions
 DENSITY_RANGE = (0.0, 1e5)  # kg/m^3: vacuum to beyond osmium's 22 590
 FRICTION_RANGE = (0.0, 10.0)
 DRAG_COEFFICIENT_RANGE = (0.0, 10.0)  # a sphere 0.1-0.5, a flat plate ~1.2
-LIFT_COEFFICIENT_RANGE = (-10.0, 10.0)  # wings reach ~3
+LIFT_COEFFICIENT_RANGE = (-10.0, 10.0)  # wings with flaps reach ~3 (steeper or later stall)
 LIFT_AREA_RANGE = LIFT_AREA_RANGE_M2  # m^2 (in spheres.py: set_lift_area checks it too)
 LIFT_SLOPE_RANGE = (0.0, 100.0)  # 1/rad: thin aerofoils 2 pi
 STALL_ANGLE_RANGE = (0.01, 1.5)  # rad: below pi/2, so the curve falls to 0 face-on
@@ -157,7 +157,8 @@ SPHERE_KEYS = {
                        (lambda v: np.linalg.norm(np.asarray(v, dtype=float), axis=-1) >= 1e-6,
                         'a non-zero vector')),
     'lift_coefficient': Key('number', 0.0, 'the most lift coefficient C_l the surface gives '
-                            '(0: no lift; negative: lifts the other way)',
+                            '(0: no lift; negative: lifts the other way); reached only where '
+                            'lift_slope * stall_angle is at least as much',
                             *LIFT_COEFFICIENT_RANGE),
     'lift_slope': Key('number', LIFT_SLOPE, 'lift-curve slope dC_l/dalpha up to the stall, '
                       '1/rad', *LIFT_SLOPE_RANGE, '1/rad'),
