@@ -198,8 +198,9 @@ TAPER = 0.2
 def build_table(data):
     """(drafts, mass axis, added, damping_rate) on TABLE_DRAFTS x MASS_AXIS: the added mass
     A33/(rho r^3) and damping B33/(rho r^3 sqrt(g/r)) of dominant_pole's one-mode oscillator
-    (the natural frequency's where it does not converge). At s = 0 the sphere only touches the water: no added mass, no
-    damping; at s = 2 the waterplane is gone, nu_n = 0 and there is no damping. Between
+    (the natural frequency's where it does not converge). At s = 0 the sphere only touches
+    the water: no added mass, no damping; at s = 2 the waterplane is gone, nu_n = 0 and
+    there is no damping. Between
     the solved drafts, monotone cubic (PCHIP) interpolation; the added mass then tapered
     linearly to zero over the last TAPER of s, so it joins and leaves the sphere smoothly
     when wave_radiation stops acting."""

@@ -213,7 +213,8 @@ def heave_radiation(listed, env, body, z):
         return 0.0, 0.0, 0.0
     # In (s, t = mu / (1 + mu)), mu = m / (rho r^3): the added mass a cubic Hermite spline
     # in s (its slope continuous inside the band, so the force of the water taken on jumps
-    # only where the band begins and ends), linear in t; the damping bilinear. Clamped before the index is taken, NaN to 0.
+    # only where the band begins and ends), linear in t; the damping bilinear. Clamped
+    # before the index is taken, NaN to 0.
     scale = density * radius * radius * radius
     row = draft * _CELLS_PER_DRAFT
     row = row if row > 0.0 else 0.0
@@ -251,14 +252,21 @@ def heave_radiation(listed, env, body, z):
     return added, added_slope, damping
 
 
+@compiled
+def heave_body(mass, radius, volume):
+    """A `body` with only what heave_radiation, inertia and water_fraction read (mass kg,
+    radius m, volume m^3, 1/radius), the rest zero."""
+    return (mass, radius, volume, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+            1.0 / radius, 0.0, 0.0)
+
+
 @numba.njit(error_model='numpy')  # not cached: numba's cache would miss a new wave_table
 def heave_added_masses(env, mass, radius, z):
     """(n,) kg: heave_radiation's added mass of each sphere (mass kg, radius m, centre
     height z m, all (n,)), for the energy of the water the spheres carry."""
     added = np.zeros(mass.shape[0])
     for i in range(mass.shape[0]):
-        body = (mass[i], radius[i], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                1.0 / radius[i], 0.0, 0.0)
+        body = heave_body(mass[i], radius[i], 0.0)
         added[i] = heave_radiation(_LISTED_SCALAR, env, body, z[i])[0]
     return added
 

@@ -24,10 +24,10 @@ from .contact import ContactParameters
 from .effects import DEFAULT_EFFECTS, EFFECTS
 from .integrators import DEFAULT_INTEGRATOR, INTEGRATORS
 from .media import Environment, Medium, Pool
-from .spheres import (check_number, check_sphere_name, check_vector, InvalidInput, LIFT_SLOPE,
-                      STALL_ANGLE,
-                      LIFT_AREA_RANGE_M2, MASS_RANGE_KG, NAME_MAX_CHARACTERS, NAME_TOKEN,
-                      named_few, RADIUS_RANGE_M, shortened, shown, Spheres)
+from .spheres import (check_number, check_sphere_name, check_vector, InvalidInput,
+                      LIFT_AREA_RANGE_M2, LIFT_SLOPE, MASS_RANGE_KG, NAME_MAX_CHARACTERS,
+                      NAME_TOKEN, named_few, RADIUS_RANGE_M, shortened, shown, Spheres,
+                      STALL_ANGLE)
 
 NODE_NAME = 'pool_sim'
 

@@ -3,9 +3,10 @@
 Near the waterline a sphere is a damped spring: z'' = -omega^2 z - lambda z', with
 omega^2 = (rho_w - rho_a)*|g|*pi*r^2 / m_eff (the waterline spring at its stiffest) and
 lambda = rho_w*C_d*pi*r^2*|v| / m_eff (quadratic drag linearised at a speed |v| it will
-reach) plus, with wave_radiation, the largest radiation damping B33 / m over every draft. One step of an integrator maps (z, z') linearly; it is stable while that map's
-spectral radius stays <= 1. The map is found by running the integrator itself, compiled with
-a linear spring where it calls the forces, so the bound cannot drift from the implementation.
+reach) plus, with wave_radiation, the largest radiation damping B33 / m over every draft.
+One step of an integrator maps (z, z') linearly; it is stable while that map's spectral
+radius stays <= 1. The map is found by running the integrator itself, compiled with a linear
+spring where it calls the forces, so the bound cannot drift from the implementation.
 
 linearly_implicit_euler takes both stiff parts implicitly and has no bound.
 """

@@ -30,7 +30,7 @@ import numba
 import numpy as np
 
 from .contact import resolve_contacts
-from .effects import effect_flags, heave_radiation, inertia, water_fraction, \
+from .effects import effect_flags, heave_body, heave_radiation, inertia, water_fraction, \
     water_taken_on, WAVE_RADIATION
 from .integrators import explicit_euler, INTEGRATORS, linearly_implicit_euler, rk4, \
     semi_implicit_euler, velocity_verlet
@@ -165,8 +165,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, parallel, sourc
                         # Moved by the contact to where it may carry more water.
                         env = (gx, gy, gz, air_density, wind_x, wind_y, wind_z, water_density,
                                current_x, current_y, current_z, surface_z)
-                        body = (mass[i], radius[i], volume[i], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                                0.0, 0.0, 0.0, 0.0, 1.0 / radius[i], 0.0, 0.0)
+                        body = heave_body(mass[i], radius[i], volume[i])
                         added = heave_radiation(listed, env, body, state[2])[0]
                         inertia_z = inertia(listed, env, body, water_fraction(
                             listed, env, body, state[2])) + added
