@@ -33,11 +33,15 @@ STARTUP_LIMIT_S = 900.0  # a row whose node sends no pose by then is reported as
 DOMAIN_ID = 100 + os.getpid() % 100
 
 
-def spheres_params_file(count, path):
-    """A params file with `count` spheres scattered through the pool's air and water."""
+def spheres_params_file(count, path, collisions=False):
+    """A params file with `count` spheres scattered through the pool's air and water;
+    collisions: the default effects and `collisions`."""
     rng = np.random.default_rng(count)
     lines = ['/**/pool_sim:', '  ros__parameters:',
              f'    sphere_names: [{", ".join(f"s{i}" for i in range(count))}]']
+    if collisions:
+        lines.append('    effects: [gravity, buoyancy, drag, wave_radiation, contact, friction, '
+                     'collisions]')
     for i in range(count):
         radius = float(rng.uniform(0.02, 0.1))
         mass = float(rng.uniform(100.0, 3000.0) * 4.0 / 3.0 * np.pi * radius**3)
@@ -149,6 +153,8 @@ def main():
                         help='measuring window; 10 or more (the node logs every 5 s)')
     parser.add_argument('--spheres', default='3,100,1000,5000,10000')
     parser.add_argument('--skip-default', action='store_true')
+    parser.add_argument('--collisions', action='store_true',
+                        help='the N-sphere table with `collisions` listed too')
     parser.add_argument('--odometry', default='1000',
                         help='sphere counts of the table with a subscriber on every odometry '
                              'topic (empty: none)')
@@ -163,15 +169,17 @@ def main():
             print(f'| {real_time_factor:9g} | {rtf:12.3f} | {per_wall:14.1f} | '
                   f'{per_sim:13.2f} | {cpu:10.0f} |')
         print()
-    print(f'N spheres, 200 Hz physics, 30 Hz publishing, real_time_factor 1; RTF, publish '
-          f'rate and where the wall time went from the node\'s own clocks over the last '
-          f'{seconds:g} s it ran; the client column is what one Python subscriber received')
+    colliding = ' colliding (the default effects and collisions)' if args.collisions else ''
+    print(f'N spheres{colliding}, 200 Hz physics, 30 Hz publishing, real_time_factor 1; '
+          f'RTF, publish rate and where the wall time went from the node\'s own clocks over '
+          f'the last {seconds:g} s it ran; the client column is what one Python subscriber received')
     print('| spheres | start-up / shutdown s | achieved RTF | publishes / wall s | node CPU % | '
           'node wall time in | client: poses / wall s |')
     print('|---:|---:|---:|---:|---:|---|---:|')
     with tempfile.TemporaryDirectory() as folder:
         for count in (int(n) for n in args.spheres.split(',') if n):
-            params = spheres_params_file(count, Path(folder) / f'spheres{count}.yaml')
+            params = spheres_params_file(count, Path(folder) / f'spheres{count}.yaml',
+                                         args.collisions)
             try:
                 _, client_rate, _, cpu, (startup, shutdown), own, _ = measure(1.0, seconds, params)
             except NoPoses as waited:

@@ -27,7 +27,7 @@ from .media import compiled, submerged_fraction, submerged_fraction_slope, \
 from .wave_table import ADDED_MASS, ADDED_MASS_SLOPE, DAMPING_RATE, DRAFTS, MASS_AXIS
 
 EFFECTS = ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass', 'wave_radiation', 'contact',
-           'friction')
+           'friction', 'collisions')
 DEFAULT_EFFECTS = ('gravity', 'buoyancy', 'drag', 'wave_radiation', 'contact', 'friction')
 # The smooth effects, in the order of effect_flags' tuple (then the submerged-volume model).
 SMOOTH_EFFECTS = ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass', 'wave_radiation')

@@ -4,7 +4,7 @@ For each configuration (integrator, the effects listed, the submerged-volume mod
 whether the loop runs in parallel) numba compiles one function that takes many steps per
 call. Inside, every effect, integrator and contact function is inlined and the scene's
 choices are compile-time constants, so what the scene does not list is not in the loop at
-all. Each step is two passes over the spheres:
+all. Each step is two passes over the spheres (three with collisions):
 
 1. the smooth step, sphere by sphere: from parallel_from_spheres() spheres up a numba
    parallel loop (prange), which pays for itself even on one thread: numba proves a parallel
@@ -16,19 +16,23 @@ all. Each step is two passes over the spheres:
    or not finite), a plain loop with branches: a sphere the step left non-finite (or whose
    bounce would not fit a double) goes back to where that step began, at rest, and is
    flagged. A step reads one pair of state arrays and writes the other, so the step's
-   start is still there for them without a copy of every sphere.
+   start is still there for them without a copy of every sphere;
+3. with `collisions` listed, sphere-sphere contact over all spheres (collisions.py), which
+   needs both the step's start and its end.
 
 Compiled functions are cached on disk (numba's cache, beside this file or in the user's
 cache directory when that is not writable), each configuration under a name that carries it
 and a digest of the physics sources, so an edit to any of them compiles afresh.
 """
 import hashlib
+import math
 import pathlib
 import threading
 
 import numba
 import numpy as np
 
+from .collisions import resolve_collisions
 from .contact import resolve_contacts
 from .effects import effect_flags, heave_body, heave_radiation, inertia, water_fraction, \
     water_taken_on, WAVE_RADIATION
@@ -43,7 +47,7 @@ _EXPLICIT_EULER, _SEMI_IMPLICIT_EULER = (INTEGRATOR_CODES['explicit_euler'],
 _VELOCITY_VERLET, _RK4 = INTEGRATOR_CODES['velocity_verlet'], INTEGRATOR_CODES['rk4']
 _LINEARLY_IMPLICIT_EULER = INTEGRATOR_CODES['linearly_implicit_euler']
 _SOURCES = ('media.py', 'wave_table.py', 'effects.py', 'integrators.py', 'contact.py',
-            'stepper.py')
+            'collisions.py', 'stepper.py')
 SOURCE_DIGEST = hashlib.sha256(b''.join(
     (pathlib.Path(__file__).parent / name).read_bytes() for name in _SOURCES)).hexdigest()[:16]
 
@@ -72,7 +76,8 @@ def parallel_from_spheres():
                                      PARALLEL_FROM_SPHERES['workqueue'])
 
 
-def _compose(integrator_code, listed, has_contact, has_friction, parallel, source_digest):
+def _compose(integrator_code, listed, has_contact, has_friction, has_collisions, parallel,
+             source_digest):
     """The compiled step loop of one configuration (see the module's docstring).
 
     Every argument is a compile-time constant of the function made here (a closure
@@ -101,6 +106,9 @@ def _compose(integrator_code, listed, has_contact, has_friction, parallel, sourc
         faces = (pool[0], pool[1], pool[2], pool[3], pool[4], pool[5])
         low_x, low_y, low_z, high_x, high_y, high_z = faces
         contact_parameters = (contact[0], contact[1], contact[2], contact[3])
+        # A rebound slower than gravity adds in one step is resting contact.
+        resting_speed = math.sqrt(gx * gx + gy * gy + gz * gz) * dt if listed[0] else 0.0
+        floor_supports = listed[0] and gz < 0.0  # piles rest on the floor (collisions.py)
         count = position.shape[1]
         put_back = 0
         for step in range(steps):
@@ -147,9 +155,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, parallel, sourc
                 mark = 0 if finite & inside else 1
                 flagged[i] = mark
                 marked += mark
-            if marked == 0:
-                continue
-            for i in range(count):
+            for i in range(count if marked else 0):
                 if flagged[i] == 0:
                     continue
                 state = (new_position[0, i], new_position[1, i], new_position[2, i],
@@ -179,6 +185,11 @@ def _compose(integrator_code, listed, has_contact, has_friction, parallel, sourc
                         new_velocity[axis, i] = 0.0
                     failed[i] = 1
                     put_back += 1
+            if has_collisions:
+                put_back += resolve_collisions(
+                    old_position, old_velocity, new_position, new_velocity, mass, radius,
+                    faces, has_contact, contact_parameters, has_friction,
+                    resting_speed, floor_supports, failed, dt)
         if steps % 2 == 1:  # the last step wrote the spare pair
             for i in range(count):
                 for axis in range(3):
@@ -190,7 +201,8 @@ def _compose(integrator_code, listed, has_contact, has_friction, parallel, sourc
     # carries the configuration and the digest of every physics source, so each
     # configuration has a cache index of its own (no two processes saving different ones
     # into one index) and an edit to any source compiles afresh.
-    flags = ''.join('1' if flag else '0' for flag in (*listed, has_contact, has_friction))
+    flags = ''.join('1' if flag else '0'
+                    for flag in (*listed, has_contact, has_friction, has_collisions))
     run_steps.__qualname__ = run_steps.__name__ = (
         f'run_steps_{INTEGRATORS_BY_CODE[integrator_code]}_{flags}_'
         f'{"parallel" if parallel else "plain"}_{source_digest}')
@@ -212,16 +224,18 @@ class Stepper:
     def __init__(self, integrator, effects, submerged_volume='cap'):
         self.configuration = (INTEGRATOR_CODES[integrator],
                               effect_flags(effects, submerged_volume),
-                              'contact' in effects, 'friction' in effects)
+                              'contact' in effects, 'friction' in effects,
+                              'collisions' in effects)
         self._listed = {parallel: effect_flags(effects, submerged_volume, scalar=not parallel)
                         for parallel in (False, True)}  # the parallel loop is the vectorised
         self._mine = [None, None]  # this Stepper's plain and parallel build, once looked up
 
     def build(self, parallel):
         """The compiled function for this configuration, plain or parallel."""
-        integrator_code, _, has_contact, has_friction = self.configuration
+        integrator_code, _, has_contact, has_friction, has_collisions = self.configuration
         parallel = bool(parallel)
-        key = (integrator_code, self._listed[parallel], has_contact, has_friction, parallel)
+        key = (integrator_code, self._listed[parallel], has_contact, has_friction,
+               has_collisions, parallel)
         with self._builds_lock:
             function = self._builds.get(key)
             if function is None:

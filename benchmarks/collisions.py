@@ -1,0 +1,204 @@
+"""Spheres dropped into the pool, colliding and settling: pool_sim with and without the
+`collisions` effect, beside MuJoCo (contacts and fluid on) and PyBullet, same spheres, same
+step, one run.
+
+    .venv/bin/python -m benchmarks.collisions [--out results/collisions] [--counts 1000 10000]
+        [--seconds 3]
+
+The scene: `count` spheres of radius 0.03-0.06 m and density 300-3000 kg/m^3 (some float,
+most sink) in a lattice above the water of the default pool (8 m cube, surface at 0), at
+rest, dropped at t = 0 and stepped at 200 Hz for `seconds` of simulated time. Cost is wall
+time / (spheres x steps), the median of `--repeats` runs from the same start, each engine
+in turn so the machine's slow spells fall on all alike. pool_sim runs its default effects
+(gravity, buoyancy, drag, wave_radiation, contact, friction), then the same plus
+collisions; MuJoCo its fluid model (density 1000, viscosity 1e-3, everywhere: it has no
+surface) with contacts against each other, the floor and the walls; PyBullet its contacts
+(it has no fluid model). Writes collisions.md and collisions.csv, with the state pool_sim
+ends in: the largest overlap left and how fast the spheres still move.
+"""
+import argparse
+from pathlib import Path
+import platform
+import statistics
+import time
+
+import numpy as np
+
+from benchmarks.common import write_csv
+from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, stepper
+from pool_sim.physics.collisions import overlaps
+
+RATE_HZ = 200.0
+RESTITUTION, FRICTION = 0.5, 0.6
+POOL_MIN, POOL_MAX = (-4.0, -4.0, -4.0), (4.0, 4.0, 4.0)
+
+
+def dropped_spheres(count, seed=0):
+    """(position (count, 3) m, radius (count,) m, mass (count,) kg): a lattice above the
+    water, 0.13 m apart, slightly jittered."""
+    rng = np.random.default_rng(seed)
+    side = 22
+    index = np.arange(count)
+    lattice = np.stack([index % side, (index // side) % side, index // (side * side)], 1)
+    position = (lattice - [side / 2 - 0.5, side / 2 - 0.5, 0.0]) * 0.13 + [0.0, 0.0, 0.3]
+    position += rng.uniform(-0.005, 0.005, position.shape)
+    radius = rng.uniform(0.03, 0.06, count)
+    density = rng.uniform(300.0, 3000.0, count)
+    return position, radius, density * 4.0 / 3.0 * np.pi * radius**3
+
+
+def pool_sim_run(count, collisions):
+    position, radius, mass = dropped_spheres(count)
+    effects = list(DEFAULT_EFFECTS) + (['collisions'] if collisions else [])
+    scene = Scene({'sphere_names': [f's{i}' for i in range(count)], 'effects': effects,
+                   'physics_rate_hz': RATE_HZ, 'contact.restitution': RESTITUTION,
+                   'contact.static_friction': FRICTION, 'contact.kinetic_friction': FRICTION,
+                   'spheres.position': position.ravel().tolist(),
+                   'spheres.radius': radius.tolist(), 'spheres.mass': mass.tolist()})
+    simulation = Simulation(scene)
+    simulation.prepare()
+
+    def run(steps):
+        simulation.reset()
+        start = time.perf_counter()
+        simulation.run(steps, 1.0 / RATE_HZ)
+        return time.perf_counter() - start
+    return run, simulation
+
+
+def mujoco_run(count):
+    import mujoco
+    position, radius, mass = dropped_spheres(count)
+    bodies = ''.join(
+        f'<body pos="{x:.4f} {y:.4f} {z:.4f}"><freejoint/>'
+        f'<geom type="sphere" size="{r:.4f}" mass="{m:.6g}"/></body>'
+        for (x, y, z), r, m in zip(position, radius, mass))
+    half = (POOL_MAX[0] - POOL_MIN[0]) / 2
+    walls = ''.join(
+        f'<geom type="box" size="{sx} {sy} {sz}" pos="{px} {py} {pz}"/>'
+        for sx, sy, sz, px, py, pz in (
+            (0.1, half, half, POOL_MIN[0] - 0.1, 0, 0), (0.1, half, half, POOL_MAX[0] + 0.1, 0, 0),
+            (half, 0.1, half, 0, POOL_MIN[1] - 0.1, 0), (half, 0.1, half, 0, POOL_MAX[1] + 0.1, 0)))
+    xml = (f'<mujoco><option timestep="{1 / RATE_HZ}" density="1000" viscosity="0.001"/>'
+           f'<default><geom friction="{FRICTION} 0.005 0.0001"/></default>'
+           f'<size memory="{max(256, count // 20)}M"/><worldbody>'
+           f'<geom type="plane" size="{half} {half} 0.1" pos="0 0 {POOL_MIN[2]}"/>{walls}'
+           f'{bodies}</worldbody></mujoco>')
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+
+    def run(steps):
+        mujoco.mj_resetData(model, data)
+        start = time.perf_counter()
+        mujoco.mj_step(model, data, nstep=steps)
+        return time.perf_counter() - start
+    return run, (model, data)
+
+
+def pybullet_run(count):
+    import pybullet
+    position, radius, mass = dropped_spheres(count)
+    client = pybullet.connect(pybullet.DIRECT)
+    pybullet.setGravity(0, 0, -9.81, physicsClientId=client)
+    pybullet.setTimeStep(1.0 / RATE_HZ, physicsClientId=client)
+    plane = pybullet.createCollisionShape(pybullet.GEOM_PLANE, physicsClientId=client)
+    pybullet.createMultiBody(0, plane, basePosition=[0, 0, POOL_MIN[2]],
+                             physicsClientId=client)
+    half = (POOL_MAX[0] - POOL_MIN[0]) / 2
+    for extents, centre in (([0.1, half, half], [POOL_MIN[0] - 0.1, 0, 0]),
+                            ([0.1, half, half], [POOL_MAX[0] + 0.1, 0, 0]),
+                            ([half, 0.1, half], [0, POOL_MIN[1] - 0.1, 0]),
+                            ([half, 0.1, half], [0, POOL_MAX[1] + 0.1, 0])):
+        box = pybullet.createCollisionShape(pybullet.GEOM_BOX, halfExtents=extents,
+                                            physicsClientId=client)
+        pybullet.createMultiBody(0, box, basePosition=centre, physicsClientId=client)
+    bodies = []
+    for (x, y, z), r, m in zip(position, radius, mass):
+        shape = pybullet.createCollisionShape(pybullet.GEOM_SPHERE, radius=float(r),
+                                              physicsClientId=client)
+        body = pybullet.createMultiBody(float(m), shape, basePosition=[x, y, z],
+                                        physicsClientId=client)
+        pybullet.changeDynamics(body, -1, restitution=RESTITUTION, lateralFriction=FRICTION,
+                                physicsClientId=client)
+        bodies.append(body)
+    start_state = pybullet.saveState(physicsClientId=client)
+
+    def run(steps):
+        pybullet.restoreState(start_state, physicsClientId=client)
+        start = time.perf_counter()
+        for _ in range(steps):
+            pybullet.stepSimulation(physicsClientId=client)
+        return time.perf_counter() - start
+    return run, client
+
+
+def measure(count, seconds, repeats):
+    stepper.use_threads(1)  # as MuJoCo and PyBullet step: one thread each
+    steps = int(round(seconds * RATE_HZ))
+    engines = {'pool_sim': pool_sim_run(count, False),
+               'pool_sim + collisions': pool_sim_run(count, True),
+               'MuJoCo (contacts + fluid)': mujoco_run(count),
+               'PyBullet (contacts)': pybullet_run(count)}
+    times = {name: [] for name in engines}
+    for _ in range(repeats):
+        for name, (run, _) in engines.items():
+            times[name].append(run(steps))
+    row = {'spheres': count, 'steps': steps}
+    for name in engines:
+        row[name] = statistics.median(times[name]) / (count * steps) * 1e9
+    simulation = engines['pool_sim + collisions'][1]
+    pairs, depth = overlaps(simulation.spheres.position, simulation.spheres.radius)
+    smaller = np.minimum(simulation.spheres.radius[pairs[0]], simulation.spheres.radius[pairs[1]])
+    speed = np.linalg.norm(simulation.spheres.velocity, axis=0)
+    row['largest overlap / smaller radius'] = (
+        float(np.max(depth / smaller)) if depth.size else 0.0)
+    row['median speed m/s'] = float(np.median(speed))
+    row['rms speed m/s'] = float(np.sqrt(np.mean(speed**2)))
+    import pybullet
+    pybullet.disconnect(engines['PyBullet (contacts)'][1])
+    return row
+
+
+def markdown(rows, seconds, repeats):
+    lines = ['# Spheres dropped into the pool, colliding: ns per sphere-step',
+             '', f'{platform.processor() or platform.machine()}, one thread, '
+             f'{seconds:g} s simulated at {RATE_HZ:g} Hz from a lattice above the water '
+             f'(benchmarks/collisions.py), median of {repeats} runs in turns.', '',
+             '| spheres | pool_sim | pool_sim + collisions | collisions cost x | MuJoCo '
+             '(contacts + fluid) | PyBullet (contacts) | MuJoCo / ours | PyBullet / ours |',
+             '|---:|---:|---:|---:|---:|---:|---:|---:|']
+    for row in rows:
+        ours = row['pool_sim + collisions']
+        lines.append(
+            f"| {row['spheres']} | {row['pool_sim']:.0f} | {ours:.0f} | "
+            f"{ours / row['pool_sim']:.2f} | {row['MuJoCo (contacts + fluid)']:.0f} | "
+            f"{row['PyBullet (contacts)']:.0f} | "
+            f"{row['MuJoCo (contacts + fluid)'] / ours:.1f} | "
+            f"{row['PyBullet (contacts)'] / ours:.1f} |")
+    lines += ['', 'Where pool_sim + collisions ends (after the last run):', '',
+              '| spheres | largest overlap / smaller radius | median speed m/s | '
+              'rms speed m/s |', '|---:|---:|---:|---:|']
+    for row in rows:
+        lines.append(f"| {row['spheres']} | {row['largest overlap / smaller radius']:.4f} | "
+                     f"{row['median speed m/s']:.2g} | {row['rms speed m/s']:.2g} |")
+    return '\n'.join(lines) + '\n'
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--out', default='results/collisions')
+    parser.add_argument('--counts', type=int, nargs='+', default=[1000, 10000])
+    parser.add_argument('--seconds', type=float, default=3.0)
+    parser.add_argument('--repeats', type=int, default=3)
+    args = parser.parse_args()
+    rows = [measure(count, args.seconds, args.repeats) for count in args.counts]
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(rows, out / 'collisions.csv')
+    text = markdown(rows, args.seconds, args.repeats)
+    (out / 'collisions.md').write_text(text)
+    print(text)
+
+
+if __name__ == '__main__':
+    main()
