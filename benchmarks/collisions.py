@@ -143,6 +143,7 @@ def measure(count, seconds, repeats):
     for _ in range(repeats):
         for name, (run, _) in engines.items():
             times[name].append(run(steps))
+            print(f'{count} spheres, {name}: {times[name][-1]:.2f} s', flush=True)
     row = {'spheres': count, 'steps': steps}
     for name in engines:
         row[name] = statistics.median(times[name]) / (count * steps) * 1e9
