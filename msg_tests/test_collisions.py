@@ -322,3 +322,18 @@ def test_the_node_refuses_an_unknown_effect_beside_collisions(pool_sim):
     from pool_sim.physics import InvalidInput
     with pytest.raises((InvalidInput, Exception)):
         pool_sim({'effects': ['collisions', 'collision']})
+
+
+def test_headless_runs_a_params_file_that_lists_collisions(tmp_path, capsys):
+    from pool_sim import headless
+    params = tmp_path / 'stack.yaml'
+    params.write_text('\n'.join([
+        '/**/pool_sim:', '  ros__parameters:', '    sphere_names: [low, high]',
+        '    effects: [gravity, buoyancy, drag, wave_radiation, contact, friction, collisions]',
+        '    low: {mass: 32.9, radius: 0.1, position: [0.0, 0.0, -3.9]}',
+        '    high: {mass: 32.9, radius: 0.1, position: [0.0, 0.0, -2.0]}']) + '\n')
+    headless.main([str(params), '--seconds', '4', '--every', '4'])
+    last = capsys.readouterr().out.strip().splitlines()[-1].replace('|', ' ').split()
+    low_z, high_z = float(last[1]), float(last[3])
+    assert low_z == pytest.approx(-3.9, abs=1e-3)
+    assert high_z == pytest.approx(-3.7, abs=OVERLAP_TOLERANCE * 0.1)  # on it, not through
