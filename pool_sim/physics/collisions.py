@@ -416,9 +416,9 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
             break
     resting = floor_supports and has_faces
     if resting:
-        supported = _settle_on_floor(pairs, normals, closing, position, velocity,
-                                              radius, faces, static_friction,
-                                              kinetic_friction, has_friction, resting_speed)
+        supported = _settle_on_floor(pairs, normals, closing, position, velocity, radius,
+                                     faces, static_friction, kinetic_friction, has_friction,
+                                     resting_speed)
     else:
         supported = np.zeros(0, dtype=np.bool_)
     changed_in[:] = 0
