@@ -18,13 +18,17 @@ Three stages, each compiled, none with per-pair Python:
      faster than what the step itself added to the approach (at least |g| dt) is resting
      contact, as on the floor: without this a pile hops for ever. Coulomb friction limits
      the tangential impulse to mu x that normal impulse (stick within mu_s, else slide at
-     mu_k). Pool faces take part with infinite mass. Every impulse is equal and opposite
-     (momentum kept to rounding) and never raises the pair's kinetic energy, whatever the
-     order, which is why the sweeps may stop early. Then one sweep bottom up lets piles
-     rest on the floor (_settle_on_floor).
+     mu_k). Pool faces take part with infinite mass; a sphere a partner drives into a
+     face rebounds from it without the step's gravity toward that face (the smooth step
+     gave it that speed, and the face had already taken it: bouncing it too adds energy).
+     Every impulse is equal and opposite (momentum kept to rounding) and never raises the
+     pair's kinetic energy, whatever the order, which is why the sweeps may stop early.
+     Then one sweep bottom up lets piles rest on the floor (_settle_on_floor); a sphere
+     that rebounded off a partner this step neither rests nor holds another up.
    - position: the overlap left is removed along each contact's normal, mass-weighted (the
      pair's centre of mass stays), with the faces clamping, until no overlap exceeds a
-     quarter of OVERLAP_TOLERANCE x the smaller radius or POSITION_SWEEPS are done.
+     quarter of OVERLAP_TOLERANCE x the smaller radius or POSITION_SWEEPS are done; after
+     the first sweep, overlaps under _POSITION_SLOP are left alone.
 
 Point masses do not spin: friction slows relative sliding, but nothing rolls and no
 torque or spin passes between spheres.
@@ -41,6 +45,10 @@ VELOCITY_SWEEPS = 12
 POSITION_SWEEPS = 10
 # Overlap a pair may keep after a step, as a fraction of the smaller radius.
 OVERLAP_TOLERANCE = 0.02
+# After the first position sweep, overlaps below this fraction of the smaller radius stay:
+# projecting them would chase rounding and pass the last sweep's small pushes through a
+# whole pile, sweep after sweep, for nothing the tolerance asks.
+_POSITION_SLOP = 0.05 * OVERLAP_TOLERANCE
 # Pairs apart by less than this fraction of their radii's sum at a step's end are contacts
 # too (speculative): the broad phase widens every sphere by it.
 SPECULATIVE_MARGIN = 0.02
@@ -58,13 +66,6 @@ _BEARING = 0.3
 _LEVEL_RATIO = 4.0
 _CELLS_PER_SPHERE = 4.0
 _MAX_LEVEL = 40
-
-
-@numba.njit(error_model='numpy')
-def _grow(array, size):
-    bigger = np.empty((array.shape[0], 2 * array.shape[1]), dtype=array.dtype)
-    bigger[:, :size] = array[:, :size]
-    return bigger
 
 
 @numba.njit(error_model='numpy', inline='always')
@@ -158,16 +159,57 @@ def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
     for i in range(count):
         order[fill[home[i]]] = i
         fill[home[i]] += 1
-    # The bounding spheres in cell order: the candidate test reads memory in a row.
+    # The bounding spheres, and the state the narrow phase reads, in cell order: the
+    # candidate test reads memory in a row, and a pair's two rows are near each other.
     sorted_bound = np.empty((count, 4))
+    # Columns: position at the step's start (0-2) and end (3-5), m; velocity at its start
+    # (6-8) and end (9-11), m/s; radius (12), m; a row is two cache lines.
+    sorted_state = np.empty((count, 16))
     for k in range(count):
         i = order[k]
         sorted_bound[k, 0], sorted_bound[k, 1] = centre[0, i], centre[1, i]
         sorted_bound[k, 2], sorted_bound[k, 3] = centre[2, i], reach[i]
+        for axis in range(3):
+            sorted_state[k, axis] = old_position[axis, i]
+            sorted_state[k, 3 + axis] = position[axis, i]
+            sorted_state[k, 6 + axis] = old_velocity[axis, i]
+            sorted_state[k, 9 + axis] = velocity[axis, i]
+        sorted_state[k, 12] = radius[i]
 
-    pairs = np.empty((2, 4 * count + 16), dtype=np.int64)
-    facts = np.empty((6, 4 * count + 16))  # normal (3), excess, added, closing
+    # Candidates first (bounding spheres that meet), in a loop of their own: the narrow
+    # phase inside the cell loops ran six times slower than on its own.
+    candidates = np.empty((2, 4 * count + 16), dtype=np.int64)
+    total = _candidate_pairs(order, level, members, where, cells, first_cell, start,
+                             sorted_bound, centre, reach, largest, low, size, candidates)
+    if total > candidates.shape[1]:
+        candidates = np.empty((2, total), dtype=np.int64)
+        _candidate_pairs(order, level, members, where, cells, first_cell, start,
+                         sorted_bound, centre, reach, largest, low, size, candidates)
+    pairs = np.empty((2, total), dtype=np.int64)
+    facts = np.empty((6, total))  # normal (3), excess, added, closing
     found = 0
+    for c in range(total):
+        k, m = candidates[0, c], candidates[1, c]
+        touching, normal, excess, added, closing = _narrow_phase(sorted_state, k, m, dt)
+        if not touching:
+            continue
+        pairs[0, found], pairs[1, found] = order[k], order[m]
+        facts[0, found], facts[1, found], facts[2, found] = normal
+        facts[3, found], facts[4, found] = excess, added
+        facts[5, found] = closing
+        found += 1
+    return (pairs[:, :found], facts[:3, :found], facts[3, :found], facts[4, :found],
+            facts[5, :found])
+
+
+@numba.njit(error_model='numpy')
+def _candidate_pairs(order, level, members, where, cells, first_cell, start, sorted_bound,
+                     centre, reach, largest, low, size, out):
+    """The pairs (k, m) of cell-order rows whose bounding spheres meet, each once, written
+    into out (2, capacity) while they fit; returns how many there are (see find_contacts
+    for the grid)."""
+    count = order.size
+    total = 0
     for k in range(count):
         i = order[k]
         cx, cy_, cz_, reach_i = (sorted_bound[k, 0], sorted_bound[k, 1], sorted_bound[k, 2],
@@ -206,31 +248,19 @@ def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
                                 + (cz_ - sorted_bound[m, 2]) ** 2)
                         if gap2 > reach_ij * reach_ij:
                             continue
-                        j = order[m]
-                        touching, normal, excess, added, closing = _narrow_phase(
-                            old_position, old_velocity, position, velocity, radius, i, j, dt)
-                        if not touching:
-                            continue
-                        if found == pairs.shape[1]:
-                            pairs, facts = _grow(pairs, found), _grow(facts, found)
-                        pairs[0, found], pairs[1, found] = i, j
-                        facts[0, found], facts[1, found], facts[2, found] = normal
-                        facts[3, found], facts[4, found] = excess, added
-                        facts[5, found] = closing
-                        found += 1
-    return (pairs[:, :found], facts[:3, :found], facts[3, :found], facts[4, :found],
-            facts[5, :found])
+                        if total < out.shape[1]:
+                            out[0, total], out[1, total] = k, m
+                        total += 1
+    return total
 
 
-@numba.njit(error_model='numpy')
-def _narrow_phase(old_position, old_velocity, position, velocity, radius, i, j, dt):
-    """(in contact, normal (3-tuple), excess m/s, added m/s, closing m/s) of spheres i, j;
-    see find_contacts."""
-    reach = radius[i] + radius[j]
-    d0 = (old_position[0, i] - old_position[0, j], old_position[1, i] - old_position[1, j],
-          old_position[2, i] - old_position[2, j])
-    d1 = (position[0, i] - position[0, j], position[1, i] - position[1, j],
-          position[2, i] - position[2, j])
+@numba.njit(error_model='numpy', inline='always')
+def _narrow_phase(state, i, j, dt):
+    """(in contact, normal (3-tuple), excess m/s, added m/s, closing m/s) of the spheres of
+    rows i, j of state (find_contacts' sorted_state); see find_contacts."""
+    reach = state[i, 12] + state[j, 12]
+    d0 = (state[i, 0] - state[j, 0], state[i, 1] - state[j, 1], state[i, 2] - state[j, 2])
+    d1 = (state[i, 3] - state[j, 3], state[i, 4] - state[j, 4], state[i, 5] - state[j, 5])
     e = (d1[0] - d0[0], d1[1] - d0[1], d1[2] - d0[2])
     start_gap = d0[0] * d0[0] + d0[1] * d0[1] + d0[2] * d0[2] - reach * reach
     impact = 0.0  # touching (or overlapping) from the step's start
@@ -262,12 +292,12 @@ def _narrow_phase(old_position, old_velocity, position, velocity, radius, i, j, 
         normal = (0.0, 0.0, 1.0)  # centres at one point: any direction is as good
     if impact > 1.0:
         return True, normal, 0.0, 0.0, (length - reach) / dt
-    approach_start = -((old_velocity[0, i] - old_velocity[0, j]) * normal[0]
-                       + (old_velocity[1, i] - old_velocity[1, j]) * normal[1]
-                       + (old_velocity[2, i] - old_velocity[2, j]) * normal[2])
-    approach_end = -((velocity[0, i] - velocity[0, j]) * normal[0]
-                     + (velocity[1, i] - velocity[1, j]) * normal[1]
-                     + (velocity[2, i] - velocity[2, j]) * normal[2])
+    approach_start = -((state[i, 6] - state[j, 6]) * normal[0]
+                       + (state[i, 7] - state[j, 7]) * normal[1]
+                       + (state[i, 8] - state[j, 8]) * normal[2])
+    approach_end = -((state[i, 9] - state[j, 9]) * normal[0]
+                     + (state[i, 10] - state[j, 10]) * normal[1]
+                     + (state[i, 11] - state[j, 11]) * normal[2])
     before = max(d0[0] * normal[0] + d0[1] * normal[1] + d0[2] * normal[2] - reach, 0.0)
     past = max(reach - (d1[0] * normal[0] + d1[1] * normal[1] + d1[2] * normal[2]), 0.0)
     at_impact = impact_speed(approach_start, approach_end, before, past, dt)
@@ -283,55 +313,77 @@ def _face_bounce(approach, restitution, resting_speed):
 
 
 @numba.njit(error_model='numpy', inline='always')
-def _against_face_pair(low, high, p, v, slack, restitution, resting_speed):
-    """One axis: the velocity (m/s) of a sphere at p (m, its centre's limits low, high)
-    after it meets the face it is on and moving into, if any."""
-    if v < 0.0 and p <= low + slack:
-        return _face_bounce(-v, restitution, resting_speed)
-    if v > 0.0 and p >= high - slack:
-        return -_face_bounce(v, restitution, resting_speed)
+def _against_face_pair(low, high, p, q, v, slack, restitution, resting_speed, gravity_step):
+    """One axis: the velocity (m/s) of a sphere at p at the step's end and q at its start
+    (m, its centre's limits low, high) after it meets the face it is on, at either, and
+    moving into, if any. gravity_step: what gravity adds to the velocity along the axis in
+    a step, m/s. (A sphere that buoyancy lifts off the floor within the step, then struck
+    from above, is still on the floor: without that its partner's fall went unchecked.)
+
+    An impulse from a partner drove it into the face some time within the step, so it
+    left the face with at most that time's gravity still to come: the rebound gives up
+    the step's gravity into the face (without it a sphere on the floor, struck from
+    above, bounced back with the fall its partner made after impact, and the pair gained
+    energy)."""
+    if v < 0.0 and min(p, q) <= low + slack:
+        return max(_face_bounce(-v, restitution, resting_speed) + min(gravity_step, 0.0),
+                   0.0)
+    if v > 0.0 and max(p, q) >= high - slack:
+        return -max(_face_bounce(v, restitution, resting_speed) - max(gravity_step, 0.0),
+                    0.0)
     return v
 
 
 @numba.njit(error_model='numpy', inline='always')
-def _velocity_against_faces(faces, radius, position, velocity, i, restitution,
-                            resting_speed):
-    """A sphere on a face and moving into it after an impulse bounces off it (or stops)."""
-    r = radius[i]
+def _on_a_face(faces, r, position, start, k):
+    """Whether the sphere of row k (radius r m) is on a face at the step's end (position)
+    or start, where _velocity_against_faces may change its velocity."""
     slack = 1e-9 * r
-    velocity[0, i] = _against_face_pair(faces[0] + r, faces[3] - r, position[0, i],
-                                        velocity[0, i], slack, restitution, resting_speed)
-    velocity[1, i] = _against_face_pair(faces[1] + r, faces[4] - r, position[1, i],
-                                        velocity[1, i], slack, restitution, resting_speed)
-    velocity[2, i] = _against_face_pair(faces[2] + r, faces[5] - r, position[2, i],
-                                        velocity[2, i], slack, restitution, resting_speed)
+    for axis in range(3):
+        if (min(position[k, axis], start[k, axis]) <= faces[axis] + r + slack
+                or max(position[k, axis], start[k, axis]) >= faces[axis + 3] - r - slack):
+            return True
+    return False
 
 
 @numba.njit(error_model='numpy', inline='always')
-def _shift(position, radius, i, sx, sy, sz, faces, has_faces):
-    """Move sphere i by (sx, sy, sz) m to undo an overlap, but not through a face."""
-    moved = position[0, i] + sx
-    if has_faces:
-        moved = min(max(moved, faces[0] + radius[i]), faces[3] - radius[i])
-    position[0, i] = moved
-    moved = position[1, i] + sy
-    if has_faces:
-        moved = min(max(moved, faces[1] + radius[i]), faces[4] - radius[i])
-    position[1, i] = moved
-    moved = position[2, i] + sz
-    if has_faces:
-        moved = min(max(moved, faces[2] + radius[i]), faces[5] - radius[i])
-    position[2, i] = moved
+def _velocity_against_faces(faces, r, position, start, velocity, k, restitution,
+                            resting_speed, gravity_step):
+    """The sphere of row k (radius r m), on a face (at the step's end, position, or its
+    start) and moving into it after an impulse, bounces off it (or stops); gravity_step:
+    gravity x dt, m/s (see _against_face_pair)."""
+    slack = 1e-9 * r
+    for axis in range(3):
+        velocity[k, axis] = _against_face_pair(faces[axis] + r, faces[axis + 3] - r,
+                                               position[k, axis], start[k, axis],
+                                               velocity[k, axis], slack, restitution,
+                                               resting_speed, gravity_step[axis])
+
+
+@numba.njit(error_model='numpy', inline='always')
+def _shift(position, r, k, sx, sy, sz, faces, has_faces):
+    """Move the sphere of row k (radius r m) by (sx, sy, sz) m to undo an overlap, but not
+    through a face."""
+    for axis, step in ((0, sx), (1, sy), (2, sz)):
+        moved = position[k, axis] + step
+        if has_faces:
+            moved = min(max(moved, faces[axis] + r), faces[axis + 3] - r)
+        position[k, axis] = moved
+
+
+# Columns of the per-contact rows resolve_collisions sweeps over.
+_NX, _NY, _NZ, _ALLOWED, _EXCESS, _RESTING, _CLOSING, _INVERSE_MASSES = range(8)
 
 
 @numba.njit(error_model='numpy')
 def resolve_collisions(old_position, old_velocity, position, velocity, mass, radius, faces,
-                       has_faces, contact, has_friction, resting_speed, floor_supports,
-                       failed, dt):
+                       has_faces, contact, has_friction, resting_speed, gravity_step,
+                       floor_supports, failed, dt):
     """Find and resolve this step's sphere-sphere contacts in place (position, velocity:
     the step's end; old_*: its start). faces: the pool's (min_x, min_y, min_z, max_x,
     max_y, max_z) when has_faces. contact: (restitution, static_friction,
-    kinetic_friction, rolling_friction). resting_speed: m/s, |g| dt. floor_supports:
+    kinetic_friction, rolling_friction). resting_speed: m/s, |g| dt. gravity_step: (3,)
+    m/s, g dt (zero without gravity). floor_supports:
     gravity points down (-z) onto a floor, so piles rest on it (see _settle_on_floor).
 
     Returns how many spheres the step guard put back (flagged in failed): a sphere the
@@ -344,80 +396,119 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     if found == 0:
         return 0
     restitution, static_friction, kinetic_friction = contact[0], contact[1], contact[2]
-    # What a pair still apart may keep of its approach: its gap / dt, or the approach it
-    # came with if faster. It has not hit yet (the next step finds the impact, and bounces
-    # it); this only stops impulses elsewhere in this step driving it through its gap.
-    allowed = np.zeros(found)
+    # The sweeps run on copies in rows: each sphere in contact (in the order the contacts,
+    # found in cell order, first meet it) has its x, y, z in one cache line, and each
+    # contact its facts in one row, so a sweep reads memory near what it just read.
+    row_of = np.full(radius.size, -1, dtype=np.int64)
+    member = np.empty(2 * found, dtype=np.int64)  # row -> sphere
+    ends = np.empty((found, 2), dtype=np.int64)  # contact -> its two rows
+    members = 0
     for c in range(found):
-        if closing[c] > 0.0:
-            i, j = pairs[0, c], pairs[1, c]
-            allowed[c] = max(closing[c], -(
-                (velocity[0, i] - velocity[0, j]) * normals[0, c]
-                + (velocity[1, i] - velocity[1, j]) * normals[1, c]
-                + (velocity[2, i] - velocity[2, j]) * normals[2, c]))
-    # Sweep at which each sphere's velocity (then position) last changed: a contact neither
+        for side in range(2):
+            i = pairs[side, c]
+            if row_of[i] < 0:
+                row_of[i] = members
+                member[members] = i
+                members += 1
+            ends[c, side] = row_of[i]
+    p = np.zeros((members, 4))  # position, m (the fourth column pads rows to 32 bytes)
+    v = np.zeros((members, 4))  # velocity, m/s
+    start = np.zeros((members, 4))  # position at the step's start, m
+    inverse_mass = np.empty(members)  # 1/kg
+    r = np.empty(members)  # radius, m
+    on_face = np.zeros(members, dtype=np.bool_)
+    for k in range(members):
+        i = member[k]
+        for axis in range(3):
+            p[k, axis] = position[axis, i]
+            v[k, axis] = velocity[axis, i]
+            start[k, axis] = old_position[axis, i]
+        inverse_mass[k] = 1.0 / mass[i]
+        r[k] = radius[i]
+        if has_faces:
+            on_face[k] = _on_a_face(faces, r[k], p, start, k)
+    facts = np.empty((found, 8))
+    for c in range(found):
+        a, b = ends[c, 0], ends[c, 1]
+        facts[c, _NX], facts[c, _NY], facts[c, _NZ] = normals[0, c], normals[1, c], normals[2, c]
+        # What a pair still apart may keep of its approach: its gap / dt, or the approach
+        # it came with if faster. It has not hit yet (the next step finds the impact, and
+        # bounces it); this only stops impulses elsewhere in this step driving it through
+        # its gap.
+        facts[c, _ALLOWED] = 0.0 if not closing[c] > 0.0 else max(closing[c], -(
+            (v[a, 0] - v[b, 0]) * normals[0, c] + (v[a, 1] - v[b, 1]) * normals[1, c]
+            + (v[a, 2] - v[b, 2]) * normals[2, c]))
+        facts[c, _EXCESS] = excess[c]
+        facts[c, _RESTING] = max(added[c], resting_speed)
+        facts[c, _CLOSING] = closing[c]
+        facts[c, _INVERSE_MASSES] = inverse_mass[a] + inverse_mass[b]
+    # Sweep at which each row's velocity (then position) last changed: a contact neither
     # of whose spheres changed since its last visit is as it was, and is skipped.
-    changed_in = np.full(radius.size, 0, dtype=np.int64)
-    rebounded = np.zeros(radius.size, dtype=np.bool_)  # bounced off a partner this step
+    changed_in = np.zeros(members, dtype=np.int64)
+    rebounded = np.zeros(members, dtype=np.bool_)  # bounced off a partner this step
     settled = _SETTLED_SPEED + 0.01 * resting_speed
     for sweep in range(1, VELOCITY_SWEEPS + 1):
         changed = False
         for c in range(found):
-            i, j = pairs[0, c], pairs[1, c]
-            if changed_in[i] < sweep - 1 and changed_in[j] < sweep - 1:
+            a, b = ends[c, 0], ends[c, 1]
+            if changed_in[a] < sweep - 1 and changed_in[b] < sweep - 1:
                 continue
-            nx, ny, nz = normals[0, c], normals[1, c], normals[2, c]
-            rx = velocity[0, i] - velocity[0, j]
-            ry = velocity[1, i] - velocity[1, j]
-            rz = velocity[2, i] - velocity[2, j]
-            approach = -(rx * nx + ry * ny + rz * nz) - allowed[c]
+            nx, ny, nz = facts[c, _NX], facts[c, _NY], facts[c, _NZ]
+            rx = v[a, 0] - v[b, 0]
+            ry = v[a, 1] - v[b, 1]
+            rz = v[a, 2] - v[b, 2]
+            approach = -(rx * nx + ry * ny + rz * nz) - facts[c, _ALLOWED]
             if not approach > settled:
                 continue
             changed = True
-            changed_in[i], changed_in[j] = sweep, sweep
+            changed_in[a], changed_in[b] = sweep, sweep
             # The rebound keeps restitution x the speed at impact; what the step added
             # after impact, and rebounds within resting speed, are not bounced. A pair
             # still apart has not hit: it is only kept from closing its gap too fast.
-            bounced = 0.0 if closing[c] > 0.0 else _face_bounce(
-                max(approach - excess[c], 0.0), restitution, max(added[c], resting_speed))
+            bounced = 0.0 if facts[c, _CLOSING] > 0.0 else _face_bounce(
+                max(approach - facts[c, _EXCESS], 0.0), restitution, facts[c, _RESTING])
             if bounced > 0.0:
-                rebounded[i], rebounded[j] = True, True
-            wi, wj = 1.0 / mass[i], 1.0 / mass[j]
-            impulse = (approach + bounced) / (wi + wj)  # N s along the normal
-            velocity[0, i] += wi * impulse * nx
-            velocity[0, j] -= wj * impulse * nx
-            velocity[1, i] += wi * impulse * ny
-            velocity[1, j] -= wj * impulse * ny
-            velocity[2, i] += wi * impulse * nz
-            velocity[2, j] -= wj * impulse * nz
+                rebounded[a], rebounded[b] = True, True
+            wi, wj = inverse_mass[a], inverse_mass[b]
+            impulse = (approach + bounced) / facts[c, _INVERSE_MASSES]  # N s along the normal
+            v[a, 0] += wi * impulse * nx
+            v[b, 0] -= wj * impulse * nx
+            v[a, 1] += wi * impulse * ny
+            v[b, 1] -= wj * impulse * ny
+            v[a, 2] += wi * impulse * nz
+            v[b, 2] -= wj * impulse * nz
             if has_friction:
-                rx = velocity[0, i] - velocity[0, j]
-                ry = velocity[1, i] - velocity[1, j]
-                rz = velocity[2, i] - velocity[2, j]
+                rx = v[a, 0] - v[b, 0]
+                ry = v[a, 1] - v[b, 1]
+                rz = v[a, 2] - v[b, 2]
                 along = rx * nx + ry * ny + rz * nz
                 tx, ty, tz = rx - along * nx, ry - along * ny, rz - along * nz
                 sliding = math.sqrt(tx * tx + ty * ty + tz * tz)
                 if sliding > 0.0:
-                    stick = sliding / (wi + wj)  # the impulse that stops the sliding
+                    stick = sliding / facts[c, _INVERSE_MASSES]  # the impulse that stops it
                     grip = (stick if stick <= static_friction * impulse
                             else kinetic_friction * impulse) / sliding
-                    velocity[0, i] -= wi * grip * tx
-                    velocity[0, j] += wj * grip * tx
-                    velocity[1, i] -= wi * grip * ty
-                    velocity[1, j] += wj * grip * ty
-                    velocity[2, i] -= wi * grip * tz
-                    velocity[2, j] += wj * grip * tz
+                    v[a, 0] -= wi * grip * tx
+                    v[b, 0] += wj * grip * tx
+                    v[a, 1] -= wi * grip * ty
+                    v[b, 1] += wj * grip * ty
+                    v[a, 2] -= wi * grip * tz
+                    v[b, 2] += wj * grip * tz
             if has_faces:
-                _velocity_against_faces(faces, radius, position, velocity, i, restitution,
-                                        resting_speed)
-                _velocity_against_faces(faces, radius, position, velocity, j, restitution,
-                                        resting_speed)
+                if on_face[a]:
+                    _velocity_against_faces(faces, r[a], p, start, v, a, restitution,
+                                            resting_speed,
+                                            gravity_step)
+                if on_face[b]:
+                    _velocity_against_faces(faces, r[b], p, start, v, b, restitution,
+                                            resting_speed,
+                                            gravity_step)
         if not changed:
             break
     resting = floor_supports and has_faces
     if resting:
-        supported = _settle_on_floor(pairs, normals, closing, position, velocity, radius,
-                                     faces, static_friction, kinetic_friction, has_friction,
+        supported = _settle_on_floor(ends, facts, p, start, v, r, rebounded, faces,
+                                     static_friction, kinetic_friction, has_friction,
                                      resting_speed)
     else:
         supported = np.zeros(0, dtype=np.bool_)
@@ -425,20 +516,20 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     for sweep in range(1, POSITION_SWEEPS + 1):
         worst = 0.0
         for c in range(found):
-            i, j = pairs[0, c], pairs[1, c]
-            if changed_in[i] < sweep - 1 and changed_in[j] < sweep - 1:
+            a, b = ends[c, 0], ends[c, 1]
+            if changed_in[a] < sweep - 1 and changed_in[b] < sweep - 1:
                 continue
-            nx, ny, nz = normals[0, c], normals[1, c], normals[2, c]
-            separation = ((position[0, i] - position[0, j]) * nx
-                          + (position[1, i] - position[1, j]) * ny
-                          + (position[2, i] - position[2, j]) * nz)
-            overlap = radius[i] + radius[j] - separation
-            if not overlap > 0.0:
+            nx, ny, nz = facts[c, _NX], facts[c, _NY], facts[c, _NZ]
+            separation = ((p[a, 0] - p[b, 0]) * nx + (p[a, 1] - p[b, 1]) * ny
+                          + (p[a, 2] - p[b, 2]) * nz)
+            overlap = r[a] + r[b] - separation
+            smaller = min(r[a], r[b])
+            if not overlap > (0.0 if sweep == 1 else _POSITION_SLOP * smaller):
                 continue
-            changed_in[i], changed_in[j] = sweep, sweep
-            worst = max(worst, overlap / min(radius[i], radius[j]))
-            wi, wj = 1.0 / mass[i], 1.0 / mass[j]
-            share_i, share_j = wi / (wi + wj), wj / (wi + wj)
+            changed_in[a], changed_in[b] = sweep, sweep
+            worst = max(worst, overlap / smaller)
+            share_a = inverse_mass[a] / facts[c, _INVERSE_MASSES]
+            share_b = inverse_mass[b] / facts[c, _INVERSE_MASSES]
             # Along the normal: the overlap, shared by inverse mass (the pair's centre of
             # mass stays).
             px, py, pz = overlap * nx, overlap * ny, overlap * nz
@@ -446,9 +537,9 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
                 # Across it: Coulomb on the step's relative sliding (Macklin et al. 2014),
                 # undone while within mu_s x the overlap, else by mu_k x it. In velocity
                 # alone each step's small slide would stay, and a pile creep flat.
-                sx = (position[0, i] - old_position[0, i]) - (position[0, j] - old_position[0, j])
-                sy = (position[1, i] - old_position[1, i]) - (position[1, j] - old_position[1, j])
-                sz = (position[2, i] - old_position[2, i]) - (position[2, j] - old_position[2, j])
+                sx = (p[a, 0] - start[a, 0]) - (p[b, 0] - start[b, 0])
+                sy = (p[a, 1] - start[a, 1]) - (p[b, 1] - start[b, 1])
+                sz = (p[a, 2] - start[a, 2]) - (p[b, 2] - start[b, 2])
                 along = sx * nx + sy * ny + sz * nz
                 tx, ty, tz = sx - along * nx, sy - along * ny, sz - along * nz
                 slid = math.sqrt(tx * tx + ty * ty + tz * tz)
@@ -456,80 +547,82 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
                     undone = (1.0 if slid <= static_friction * overlap
                               else kinetic_friction * overlap / slid)
                     px, py, pz = px - undone * tx, py - undone * ty, pz - undone * tz
-            _shift(position, radius, i, share_i * px, share_i * py, share_i * pz, faces,
-                   has_faces)
-            _shift(position, radius, j, -share_j * px, -share_j * py, -share_j * pz, faces,
-                   has_faces)
+            _shift(p, r[a], a, share_a * px, share_a * py, share_a * pz, faces, has_faces)
+            _shift(p, r[b], b, -share_b * px, -share_b * py, -share_b * pz, faces, has_faces)
         if worst <= 0.25 * OVERLAP_TOLERANCE:
             break
     if resting:
         # A resting sphere moves as its position did, if that is slower: what is left of
         # its velocity after the sweeps is the solver's lag, which the projection has
         # undone in position (as position-based dynamics derives velocity).
-        for i in range(radius.size):
-            if not supported[i] or rebounded[i]:
+        for k in range(members):
+            if not supported[k] or rebounded[k]:
                 continue  # a bounce is not lag
-            moved = (position[0, i] - old_position[0, i], position[1, i] - old_position[1, i],
-                     position[2, i] - old_position[2, i])
+            moved = (p[k, 0] - start[k, 0], p[k, 1] - start[k, 1], p[k, 2] - start[k, 2])
             if ((moved[0] * moved[0] + moved[1] * moved[1] + moved[2] * moved[2])
-                    < dt * dt * (velocity[0, i] ** 2 + velocity[1, i] ** 2
-                                 + velocity[2, i] ** 2)):
+                    < dt * dt * (v[k, 0] ** 2 + v[k, 1] ** 2 + v[k, 2] ** 2)):
                 for axis in range(3):
-                    velocity[axis, i] = moved[axis] / dt
+                    v[k, axis] = moved[axis] / dt
     put_back = 0
-    for c in range(found):
-        for i in (pairs[0, c], pairs[1, c]):
-            if failed[i] or (position[0, i] * 0.0 + position[1, i] * 0.0 + position[2, i] * 0.0
-                             + velocity[0, i] * 0.0 + velocity[1, i] * 0.0
-                             + velocity[2, i] * 0.0) == 0.0:
-                continue
-            for axis in range(3):
-                position[axis, i] = old_position[axis, i]
-                velocity[axis, i] = 0.0
-            failed[i] = 1
-            put_back += 1
+    for k in range(members):
+        i = member[k]
+        for axis in range(3):
+            position[axis, i] = p[k, axis]
+            velocity[axis, i] = v[k, axis]
+        if failed[i] or (p[k, 0] * 0.0 + p[k, 1] * 0.0 + p[k, 2] * 0.0 + v[k, 0] * 0.0
+                         + v[k, 1] * 0.0 + v[k, 2] * 0.0) == 0.0:
+            continue
+        for axis in range(3):
+            position[axis, i] = old_position[axis, i]
+            velocity[axis, i] = 0.0
+        failed[i] = 1
+        put_back += 1
     return put_back
 
 
 @numba.njit(error_model='numpy')
-def _settle_on_floor(pairs, normals, closing, position, velocity, radius, faces,
-                     static_friction, kinetic_friction, has_friction, resting_speed):
+def _settle_on_floor(ends, facts, p, start, v, r, rebounded, faces, static_friction,
+                     kinetic_friction, has_friction, resting_speed):
     """One last sweep, bottom up, that lets a pile rest (shock propagation, Guendelman et
     al. 2003): a sphere on the floor, or on one that rests, is as immovable as the floor
     for the sphere above it, whose approach (and, within Coulomb, its sliding) stops.
 
     Sequential impulses alone pass a pile's weight down a layer per sweep, so a pile of k
     layers would keep velocities of order g dt unless swept ~k^2 times. The momentum so
-    taken goes to the floor, as in a resting pile it does.
+    taken goes to the floor, as in a resting pile it does. ends, facts, p, start, v, r,
+    rebounded: the rows of resolve_collisions; a sphere on the floor at the step's start
+    or end rests on it. A sphere that bounced off a partner in this step neither rests nor
+    holds anything up: it is moving, and treating it as immovable would hand its speed, at
+    the floor's expense, to whatever lies on it (a light sphere on the floor, struck by a
+    heavy one, sent the heavy one up at its own rebound speed).
 
-    Returns supported (n,) bool: the spheres found resting."""
-    found = pairs.shape[1]
-    count = radius.size
+    Returns supported (rows,) bool: the spheres found resting."""
+    found = ends.shape[0]
+    members = r.size
     # Contacts ordered by the lower sphere's height: a counting sort on layers of the
     # smallest radius.
     lowest, highest, smallest = math.inf, -math.inf, math.inf
-    for c in range(found):
-        for i in (pairs[0, c], pairs[1, c]):
-            lowest = min(lowest, position[2, i])
-            highest = max(highest, position[2, i])
-            smallest = min(smallest, radius[i])
+    for k in range(members):
+        lowest = min(lowest, p[k, 2])
+        highest = max(highest, p[k, 2])
+        smallest = min(smallest, r[k])
     layers = int(min((highest - lowest) / smallest, 4.0 * found)) + 1
-    start = np.zeros(layers + 1, dtype=np.int64)
+    layer_start = np.zeros(layers + 1, dtype=np.int64)
     layer = np.empty(found, dtype=np.int64)
     for c in range(found):
-        height = min(position[2, pairs[0, c]], position[2, pairs[1, c]])
+        height = min(p[ends[c, 0], 2], p[ends[c, 1], 2])
         layer[c] = min(int((height - lowest) / smallest), layers - 1)
-        start[layer[c] + 1] += 1
+        layer_start[layer[c] + 1] += 1
     for k in range(layers):
-        start[k + 1] += start[k]
+        layer_start[k + 1] += layer_start[k]
     order = np.empty(found, dtype=np.int64)
     for c in range(found):
-        order[start[layer[c]]] = c
-        start[layer[c]] += 1
-    supported = np.zeros(count, dtype=np.bool_)
-    for c in range(found):
-        for i in (pairs[0, c], pairs[1, c]):
-            supported[i] = position[2, i] <= faces[2] + radius[i] * (1.0 + 1e-9)
+        order[layer_start[layer[c]]] = c
+        layer_start[layer[c]] += 1
+    supported = np.empty(members, dtype=np.bool_)
+    for k in range(members):
+        supported[k] = (min(p[k, 2], start[k, 2]) <= faces[2] + r[k] * (1.0 + 1e-9)
+                        and not rebounded[k])
     # Who rests on what: sorted bottom up, a few passes reach every layer (a pass misses
     # only a sphere held up through one of its own layer met later).
     carries = np.zeros(found, dtype=np.int64)  # 1: the first sphere rests on the second
@@ -537,13 +630,16 @@ def _settle_on_floor(pairs, normals, closing, position, velocity, radius, faces,
         spread = False
         for k in range(found):
             c = order[k]
-            if closing[c] > resting_speed or carries[c] != 0:
+            if facts[c, _CLOSING] > resting_speed or carries[c] != 0:
                 continue  # apart by more than a step's fall: holds nothing up; or known
-            if normals[2, c] > _BEARING and supported[pairs[1, c]]:
-                carries[c], upper = 1, pairs[0, c]
-            elif normals[2, c] < -_BEARING and supported[pairs[0, c]]:
-                carries[c], upper = 2, pairs[1, c]
+            if facts[c, _NZ] > _BEARING and supported[ends[c, 1]]:
+                carries[c], upper = 1, ends[c, 0]
+            elif facts[c, _NZ] < -_BEARING and supported[ends[c, 0]]:
+                carries[c], upper = 2, ends[c, 1]
             else:
+                continue
+            if rebounded[upper]:
+                carries[c] = 0
                 continue
             spread = spread or not supported[upper]
             supported[upper] = True
@@ -554,19 +650,19 @@ def _settle_on_floor(pairs, normals, closing, position, velocity, radius, faces,
         if carries[c] == 0:
             continue
         if carries[c] == 1:
-            upper, lower, sign = pairs[0, c], pairs[1, c], 1.0
+            upper, lower, sign = ends[c, 0], ends[c, 1], 1.0
         else:
-            upper, lower, sign = pairs[1, c], pairs[0, c], -1.0
-        nx, ny, nz = sign * normals[0, c], sign * normals[1, c], sign * normals[2, c]
-        rx = velocity[0, upper] - velocity[0, lower]
-        ry = velocity[1, upper] - velocity[1, lower]
-        rz = velocity[2, upper] - velocity[2, lower]
-        approach = -(rx * nx + ry * ny + rz * nz) - closing[c]
+            upper, lower, sign = ends[c, 1], ends[c, 0], -1.0
+        nx, ny, nz = sign * facts[c, _NX], sign * facts[c, _NY], sign * facts[c, _NZ]
+        rx = v[upper, 0] - v[lower, 0]
+        ry = v[upper, 1] - v[lower, 1]
+        rz = v[upper, 2] - v[lower, 2]
+        approach = -(rx * nx + ry * ny + rz * nz) - facts[c, _CLOSING]
         if not approach > 0.0:
             continue
-        velocity[0, upper] += approach * nx
-        velocity[1, upper] += approach * ny
-        velocity[2, upper] += approach * nz
+        v[upper, 0] += approach * nx
+        v[upper, 1] += approach * ny
+        v[upper, 2] += approach * nz
         if has_friction:
             rx, ry, rz = rx + approach * nx, ry + approach * ny, rz + approach * nz
             tx, ty, tz = rx, ry, rz  # normal part now zero
@@ -574,9 +670,9 @@ def _settle_on_floor(pairs, normals, closing, position, velocity, radius, faces,
             if sliding > 0.0:
                 grip = (1.0 if sliding <= static_friction * approach
                         else kinetic_friction * approach / sliding)
-                velocity[0, upper] -= grip * tx
-                velocity[1, upper] -= grip * ty
-                velocity[2, upper] -= grip * tz
+                v[upper, 0] -= grip * tx
+                v[upper, 1] -= grip * ty
+                v[upper, 2] -= grip * tz
     return supported
 
 

@@ -109,6 +109,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
         # A rebound slower than gravity adds in one step is resting contact.
         resting_speed = math.sqrt(gx * gx + gy * gy + gz * gz) * dt if listed[0] else 0.0
         floor_supports = listed[0] and gz < 0.0  # piles rest on the floor (collisions.py)
+        gravity_step = (gx * dt, gy * dt, gz * dt) if listed[0] else (0.0, 0.0, 0.0)
         count = position.shape[1]
         put_back = 0
         for step in range(steps):
@@ -189,7 +190,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                 put_back += resolve_collisions(
                     old_position, old_velocity, new_position, new_velocity, mass, radius,
                     faces, has_contact, contact_parameters, has_friction,
-                    resting_speed, floor_supports, failed, dt)
+                    resting_speed, gravity_step, floor_supports, failed, dt)
         if steps % 2 == 1:  # the last step wrote the spare pair
             for i in range(count):
                 for axis in range(3):
