@@ -162,6 +162,7 @@ def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
     # The bounding spheres, and the state the narrow phase reads, in cell order: the
     # candidate test reads memory in a row, and a pair's two rows are near each other.
     sorted_bound = np.empty((count, 4))
+    sorted_cell = np.empty((count, 4), dtype=np.int64)  # its cell x, y, z and its level
     # Columns: position at the step's start (0-2) and end (3-5), m; velocity at its start
     # (6-8) and end (9-11), m/s; radius (12), m; a row is two cache lines.
     sorted_state = np.empty((count, 16))
@@ -169,6 +170,8 @@ def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
         i = order[k]
         sorted_bound[k, 0], sorted_bound[k, 1] = centre[0, i], centre[1, i]
         sorted_bound[k, 2], sorted_bound[k, 3] = centre[2, i], reach[i]
+        sorted_cell[k, 0], sorted_cell[k, 1] = where[0, i], where[1, i]
+        sorted_cell[k, 2], sorted_cell[k, 3] = where[2, i], level[i]
         for axis in range(3):
             sorted_state[k, axis] = old_position[axis, i]
             sorted_state[k, 3 + axis] = position[axis, i]
@@ -179,12 +182,12 @@ def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
     # Candidates first (bounding spheres that meet), in a loop of their own: the narrow
     # phase inside the cell loops ran six times slower than on its own.
     candidates = np.empty((2, 4 * count + 16), dtype=np.int64)
-    total = _candidate_pairs(order, level, members, where, cells, first_cell, start,
-                             sorted_bound, centre, reach, largest, low, size, candidates)
+    total = _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_bound,
+                             largest, low, size, candidates)
     if total > candidates.shape[1]:
         candidates = np.empty((2, total), dtype=np.int64)
-        _candidate_pairs(order, level, members, where, cells, first_cell, start,
-                         sorted_bound, centre, reach, largest, low, size, candidates)
+        _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_bound,
+                         largest, low, size, candidates)
     pairs = np.empty((2, total), dtype=np.int64)
     facts = np.empty((6, total))  # normal (3), excess, added, closing
     found = 0
@@ -203,37 +206,38 @@ def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
 
 
 @numba.njit(error_model='numpy')
-def _candidate_pairs(order, level, members, where, cells, first_cell, start, sorted_bound,
-                     centre, reach, largest, low, size, out):
+def _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_bound, largest,
+                     low, size, out):
     """The pairs (k, m) of cell-order rows whose bounding spheres meet, each once, written
     into out (2, capacity) while they fit; returns how many there are (see find_contacts
     for the grid)."""
-    count = order.size
+    count = sorted_cell.shape[0]
+    capacity = out.shape[1]
     total = 0
     for k in range(count):
-        i = order[k]
         cx, cy_, cz_, reach_i = (sorted_bound[k, 0], sorted_bound[k, 1], sorted_bound[k, 2],
                                  sorted_bound[k, 3])
-        for at in range(level[i] + 1):
+        its_level = sorted_cell[k, 3]
+        for at in range(its_level + 1):
             if members[at] == 0:
                 continue
-            own = at == level[i]
+            own = at == its_level
             if own:
                 # Half the neighbourhood: the rest of this sphere's own cell (sorted after
                 # it) and the next cell along x, then the three rows ahead in y and the
                 # nine in z; each pair is met once, from the sphere met first.
-                x, y, z = where[0, i], where[1, i], where[2, i]
+                x, y, z = sorted_cell[k, 0], sorted_cell[k, 1], sorted_cell[k, 2]
                 x_low, x_high = max(x - 1, 0), min(x + 1, cells[at, 0] - 1)
                 y_low, y_high = y, min(y + 1, cells[at, 1] - 1)
                 z_low, z_high = z, min(z + 1, cells[at, 2] - 1)
             else:  # a finer level: the cells this sphere's reach and theirs can span
-                span = reach[i] + largest[at]
-                x_low = _cell_of(centre[0, i] - span, low[at, 0], size[at], cells[at, 0])
-                x_high = _cell_of(centre[0, i] + span, low[at, 0], size[at], cells[at, 0])
-                y_low = _cell_of(centre[1, i] - span, low[at, 1], size[at], cells[at, 1])
-                y_high = _cell_of(centre[1, i] + span, low[at, 1], size[at], cells[at, 1])
-                z_low = _cell_of(centre[2, i] - span, low[at, 2], size[at], cells[at, 2])
-                z_high = _cell_of(centre[2, i] + span, low[at, 2], size[at], cells[at, 2])
+                span = reach_i + largest[at]
+                x_low = _cell_of(cx - span, low[at, 0], size[at], cells[at, 0])
+                x_high = _cell_of(cx + span, low[at, 0], size[at], cells[at, 0])
+                y_low = _cell_of(cy_ - span, low[at, 1], size[at], cells[at, 1])
+                y_high = _cell_of(cy_ + span, low[at, 1], size[at], cells[at, 1])
+                z_low = _cell_of(cz_ - span, low[at, 2], size[at], cells[at, 2])
+                z_high = _cell_of(cz_ + span, low[at, 2], size[at], cells[at, 2])
             for cz in range(z_low, z_high + 1):
                 # Own level, the row of z ahead: all nine cells; its own z: y and y + 1.
                 ys = max(y_low - 1, 0) if own and cz > z_low else y_low
@@ -246,11 +250,11 @@ def _candidate_pairs(order, level, members, where, cells, first_cell, start, sor
                         reach_ij = reach_i + sorted_bound[m, 3]
                         gap2 = ((cx - sorted_bound[m, 0]) ** 2 + (cy_ - sorted_bound[m, 1]) ** 2
                                 + (cz_ - sorted_bound[m, 2]) ** 2)
-                        if gap2 > reach_ij * reach_ij:
-                            continue
-                        if total < out.shape[1]:
+                        # Written whether they meet or not, and kept if they do: no
+                        # branch to mispredict (most do not).
+                        if total < capacity:
                             out[0, total], out[1, total] = k, m
-                        total += 1
+                        total += gap2 <= reach_ij * reach_ij
     return total
 
 
@@ -372,7 +376,7 @@ def _shift(position, r, k, sx, sy, sz, faces, has_faces):
 
 
 # Columns of the per-contact rows resolve_collisions sweeps over.
-_NX, _NY, _NZ, _ALLOWED, _EXCESS, _RESTING, _CLOSING, _INVERSE_MASSES = range(8)
+_NX, _NY, _NZ, _ALLOWED, _EXCESS, _RESTING, _CLOSING, _REDUCED_MASS = range(8)
 
 
 @numba.njit(error_model='numpy')
@@ -441,7 +445,7 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
         facts[c, _EXCESS] = excess[c]
         facts[c, _RESTING] = max(added[c], resting_speed)
         facts[c, _CLOSING] = closing[c]
-        facts[c, _INVERSE_MASSES] = inverse_mass[a] + inverse_mass[b]
+        facts[c, _REDUCED_MASS] = 1.0 / (inverse_mass[a] + inverse_mass[b])  # kg
     # Sweep at which each row's velocity (then position) last changed: a contact neither
     # of whose spheres changed since its last visit is as it was, and is skipped.
     changed_in = np.zeros(members, dtype=np.int64)
@@ -470,7 +474,7 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
             if bounced > 0.0:
                 rebounded[a], rebounded[b] = True, True
             wi, wj = inverse_mass[a], inverse_mass[b]
-            impulse = (approach + bounced) / facts[c, _INVERSE_MASSES]  # N s along the normal
+            impulse = (approach + bounced) * facts[c, _REDUCED_MASS]  # N s along the normal
             v[a, 0] += wi * impulse * nx
             v[b, 0] -= wj * impulse * nx
             v[a, 1] += wi * impulse * ny
@@ -485,7 +489,7 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
                 tx, ty, tz = rx - along * nx, ry - along * ny, rz - along * nz
                 sliding = math.sqrt(tx * tx + ty * ty + tz * tz)
                 if sliding > 0.0:
-                    stick = sliding / facts[c, _INVERSE_MASSES]  # the impulse that stops it
+                    stick = sliding * facts[c, _REDUCED_MASS]  # the impulse that stops it
                     grip = (stick if stick <= static_friction * impulse
                             else kinetic_friction * impulse) / sliding
                     v[a, 0] -= wi * grip * tx
@@ -528,8 +532,8 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
                 continue
             changed_in[a], changed_in[b] = sweep, sweep
             worst = max(worst, overlap / smaller)
-            share_a = inverse_mass[a] / facts[c, _INVERSE_MASSES]
-            share_b = inverse_mass[b] / facts[c, _INVERSE_MASSES]
+            share_a = inverse_mass[a] * facts[c, _REDUCED_MASS]
+            share_b = inverse_mass[b] * facts[c, _REDUCED_MASS]
             # Along the normal: the overlap, shared by inverse mass (the pair's centre of
             # mass stays).
             px, py, pz = overlap * nx, overlap * ny, overlap * nz
