@@ -8,6 +8,7 @@ import pytest
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
+from pool_sim.ros import simulator_node
 from ros_harness import Harness, stamp_seconds
 
 FAST = {'real_time_factor': 0.0}
@@ -194,3 +195,34 @@ def test_a_node_that_falls_behind_drops_the_backlog_and_says_how_much():
         assert 0.89 <= ros.sim.given_up_s - given_up_before <= 1.2
         assert f'{ros.sim.given_up_s:.2f} s given up to the catch-up bound' in \
             ros.sim.time_report()
+
+
+def test_a_node_behind_real_time_ticks_again_at_once_and_one_on_time_waits_its_period(
+        monkeypatch):
+    # Waiting a whole tick period after a tick that used its budget left a node that could
+    # not keep up idle for most of its wall time.
+    with Harness({'real_time_factor': 1.0}) as ros:
+        assert ros.spin_until(lambda: ros.sim.simulation.time > 0.05)
+        waits = []
+        wait = ros.sim.clock_wake.wait
+        monkeypatch.setattr(ros.sim.clock_wake, 'wait',
+                            lambda timeout=None: (waits.append(timeout), wait(timeout))[1])
+        with ros.sim.lock:  # between two ticks of the clock thread
+            ros.sim.last_wall -= 0.05
+            assert ros.sim._on_tick() is False  # three spheres catch up within the budget
+            monkeypatch.setattr(simulator_node, 'TICK_BUDGET_S', 0.0)  # no time to step
+            ros.sim.last_wall -= 0.05
+            assert ros.sim._on_tick() is True
+            waits.clear()
+        assert ros.spin_until(lambda: len(waits) >= 3)
+        assert set(waits[:3]) == {simulator_node.TICK_PERIOD_RANGE_S[0]}
+        monkeypatch.setattr(simulator_node, 'TICK_BUDGET_S', 0.02)
+        assert ros.spin_until(lambda: ros.sim.backlog_s < ros.sim.simulation.max_step)
+        count = len(waits)
+        assert ros.spin_until(lambda: len(waits) >= count + 3)
+        assert waits[-1] == pytest.approx(ros.sim.tick_period)
+        assert ros.sim.tick_period == pytest.approx(1 / 30)  # the default 30 Hz publishing
+        with ros.sim.lock:
+            ros.sim.paused = True
+            assert ros.sim._on_tick() is False  # paused is not behind
+            ros.sim.paused = False
