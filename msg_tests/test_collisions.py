@@ -68,6 +68,26 @@ def test_a_sphere_fast_enough_to_pass_through_another_in_one_step_hits_it():
     assert sim.spheres.position[0, 1] > sim.spheres.position[0, 0]  # still in order
 
 
+@pytest.mark.parametrize('restitution', [0.0, 0.5, 1.0])
+def test_a_pair_parting_in_the_step_is_not_driven_into_each_other_by_a_third(restitution):
+    # A column: b is leaving a (0.1 mm apart at the step's start, 3.1 mm at its end,
+    # beyond the 2 mm margin), and a sphere 1 000 times heavier falls 5 cm onto b within
+    # the same step. Pushing them apart sends b back into a: a and b must meet as a
+    # contact in that step (when a pair parting at the step's end was no contact, b
+    # ended 4.9 cm deep in a).
+    radius = 0.05
+    sim = Simulation(spheres_scene(
+        [(0, 0, 0), (0, 0, 2 * radius + 1e-4), (0, 0, 4 * radius + 0.0011)],
+        [(0, 0, 0), (0, 0, 0.3), (0, 0, -5.0)], radius=radius, mass=[1.0, 1.0, 1000.0],
+        contact__restitution=restitution, physics_rate_hz=100.0))
+    energy = 0.5 * sim.spheres.mass @ (sim.spheres.velocity**2).sum(axis=0)
+    for _ in range(5):
+        sim.step()
+        _, depth = overlaps(sim.spheres.position, sim.spheres.radius)
+        assert depth.max(initial=0.0) <= OVERLAP_TOLERANCE * radius
+    assert 0.5 * sim.spheres.mass @ (sim.spheres.velocity**2).sum(axis=0) <= energy * (1 + 1e-12)
+
+
 # Binary collisions: exact answers.
 
 def collide(mass_a, mass_b, restitution, speed_a, speed_b, offset, radius=0.05):
