@@ -189,21 +189,16 @@ def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
         candidates = np.empty((2, total), dtype=np.int64)
         _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_bound,
                          largest, low, size, candidates)
+    # Every candidate is a contact: touching within the step, or speculative (_narrow_phase).
     pairs = np.empty((2, total), dtype=np.int64)
     facts = np.empty((6, total))  # normal (3), excess, added, closing
-    found = 0
     for c in range(total):
         k, m = candidates[0, c], candidates[1, c]
-        touching, normal, excess, added, closing = _narrow_phase(sorted_state, k, m, dt)
-        if not touching:
-            continue
-        pairs[0, found], pairs[1, found] = order[k], order[m]
-        facts[0, found], facts[1, found], facts[2, found] = normal
-        facts[3, found], facts[4, found] = excess, added
-        facts[5, found] = closing
-        found += 1
-    return (pairs[:, :found], facts[:3, :found], facts[3, :found], facts[4, :found],
-            facts[5, :found])
+        normal, excess, added, closing = _narrow_phase(sorted_state, k, m, dt)
+        pairs[0, c], pairs[1, c] = order[k], order[m]
+        facts[0, c], facts[1, c], facts[2, c] = normal
+        facts[3, c], facts[4, c], facts[5, c] = excess, added, closing
+    return pairs, facts[:3], facts[3], facts[4], facts[5]
 
 
 @numba.njit(error_model='numpy')
@@ -261,8 +256,8 @@ def _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_boun
 
 @numba.njit(error_model='numpy', inline='always')
 def _narrow_phase(state, i, j, dt):
-    """(in contact, normal (3-tuple), excess m/s, added m/s, closing m/s) of the spheres of
-    rows i, j of state (find_contacts' sorted_state); see find_contacts."""
+    """(normal (3-tuple), excess m/s, added m/s, closing m/s) of the spheres of rows i, j
+    of state (find_contacts' sorted_state), whose bounding spheres met; see find_contacts."""
     reach = state[i, 12] + state[j, 12]
     d0 = (state[i, 0] - state[j, 0], state[i, 1] - state[j, 1], state[i, 2] - state[j, 2])
     d1 = (state[i, 3] - state[j, 3], state[i, 4] - state[j, 4], state[i, 5] - state[j, 5])
@@ -295,7 +290,7 @@ def _narrow_phase(state, i, j, dt):
     else:
         normal = (0.0, 0.0, 1.0)  # centres at one point: any direction is as good
     if impact > 1.0:
-        return True, normal, 0.0, 0.0, (length - reach) / dt
+        return normal, 0.0, 0.0, (length - reach) / dt
     approach_start = -((state[i, 6] - state[j, 6]) * normal[0]
                        + (state[i, 7] - state[j, 7]) * normal[1]
                        + (state[i, 8] - state[j, 8]) * normal[2])
@@ -305,7 +300,7 @@ def _narrow_phase(state, i, j, dt):
     before = max(d0[0] * normal[0] + d0[1] * normal[1] + d0[2] * normal[2] - reach, 0.0)
     past = max(reach - (d1[0] * normal[0] + d1[1] * normal[1] + d1[2] * normal[2]), 0.0)
     at_impact = impact_speed(approach_start, approach_end, before, past, dt)
-    return True, normal, max(approach_end - at_impact, 0.0), approach_end - approach_start, 0.0
+    return normal, max(approach_end - at_impact, 0.0), approach_end - approach_start, 0.0
 
 
 @numba.njit(error_model='numpy', inline='always')
@@ -501,12 +496,10 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
             if has_faces:
                 if on_face[a]:
                     _velocity_against_faces(faces, r[a], p, start, v, a, restitution,
-                                            resting_speed,
-                                            gravity_step)
+                                            resting_speed, gravity_step)
                 if on_face[b]:
                     _velocity_against_faces(faces, r[b], p, start, v, b, restitution,
-                                            resting_speed,
-                                            gravity_step)
+                                            resting_speed, gravity_step)
         if not changed:
             break
     resting = floor_supports and has_faces
