@@ -197,7 +197,8 @@ def lattice(count, spacing, centre_z, seed=0, jitter=0.004):
 
 
 # Measured (2026-12-03): from 15 s to 30 s the 1 000 pile keeps compacting slowly, rms
-# speed 3.8-4.4 mm/s, fastest 2.8-3.8 cm/s, deepest overlap 0.8-1.05 % of a radius.
+# speed 3.8-5.7 mm/s, fastest 1.7-8.9 cm/s, deepest overlap 0.79-1.04 % of a radius
+# (every 0.5 s).
 # Resting, not still: the bounds say so, with room for other machines' rounding.
 PILE_RMS_SPEED = 0.01  # m/s
 PILE_FASTEST = 0.1  # m/s

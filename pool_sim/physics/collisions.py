@@ -53,9 +53,15 @@ _POSITION_SLOP = 0.05 * OVERLAP_TOLERANCE
 # The broad phase widens every sphere by this fraction of its radius: pairs at rest apart
 # by less than this of their radii's sum are (speculative) contacts too.
 SPECULATIVE_MARGIN = 0.02
-# An approach slower than this (m/s), plus 1 % of |g| dt, counts as none: float noise and
-# solver lag the bottom-up sweep and the projection take care of.
+# An approach slower than _SETTLED_SPEED (m/s) plus _SETTLED_FRACTION x |g| dt counts as
+# none: float noise and solver lag, which the bottom-up sweep and the projection take care
+# of. Left, such a pair closes by at most a tenth of one step's fall (25 um at 200 Hz, far
+# inside OVERLAP_TOLERANCE). Sweeps spent below it only passed a pile's weight along:
+# 1 % (it was) swept half the contacts of a landing 10 000 all 12 sweeps; at 10 % half as
+# many fired, the scene cost ~8 % less, a resting pile ~20 %, and the 1 000-sphere pile
+# ended as still (rms 4.3-4.6 mm/s against 4.3-7.0, deepest overlap 0.9 % against 1.4 %).
 _SETTLED_SPEED = 1e-9
+_SETTLED_FRACTION = 0.1
 # Centres this much (of the radii's sum) beyond touching still touch: rounding.
 _TOUCHING = 1e-9
 # A contact whose normal is within 72 degrees of vertical can hold the upper sphere up
@@ -445,7 +451,7 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     # of whose spheres changed since its last visit is as it was, and is skipped.
     changed_in = np.zeros(members, dtype=np.int64)
     rebounded = np.zeros(members, dtype=np.bool_)  # bounced off a partner this step
-    settled = _SETTLED_SPEED + 0.01 * resting_speed
+    settled = _SETTLED_SPEED + _SETTLED_FRACTION * resting_speed
     for sweep in range(1, VELOCITY_SWEEPS + 1):
         changed = False
         for c in range(found):
@@ -453,9 +459,14 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
             if changed_in[a] < sweep - 1 and changed_in[b] < sweep - 1:
                 continue
             nx, ny, nz = facts[c, _NX], facts[c, _NY], facts[c, _NZ]
-            rx = v[a, 0] - v[b, 0]
-            ry = v[a, 1] - v[b, 1]
-            rz = v[a, 2] - v[b, 2]
+            # The pair's velocities in locals until the impulses are done: through the
+            # arrays every update waits for the store before it (a and b may alias, for
+            # all the compiler knows), and a fire costs several times more.
+            ax, ay, az = v[a, 0], v[a, 1], v[a, 2]
+            bx, by, bz = v[b, 0], v[b, 1], v[b, 2]
+            rx = ax - bx
+            ry = ay - by
+            rz = az - bz
             approach = -(rx * nx + ry * ny + rz * nz) - facts[c, _ALLOWED]
             if not approach > settled:
                 continue
@@ -470,16 +481,16 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
                 rebounded[a], rebounded[b] = True, True
             wi, wj = inverse_mass[a], inverse_mass[b]
             impulse = (approach + bounced) * facts[c, _REDUCED_MASS]  # N s along the normal
-            v[a, 0] += wi * impulse * nx
-            v[b, 0] -= wj * impulse * nx
-            v[a, 1] += wi * impulse * ny
-            v[b, 1] -= wj * impulse * ny
-            v[a, 2] += wi * impulse * nz
-            v[b, 2] -= wj * impulse * nz
+            ax += wi * impulse * nx
+            bx -= wj * impulse * nx
+            ay += wi * impulse * ny
+            by -= wj * impulse * ny
+            az += wi * impulse * nz
+            bz -= wj * impulse * nz
             if has_friction:
-                rx = v[a, 0] - v[b, 0]
-                ry = v[a, 1] - v[b, 1]
-                rz = v[a, 2] - v[b, 2]
+                rx = ax - bx
+                ry = ay - by
+                rz = az - bz
                 along = rx * nx + ry * ny + rz * nz
                 tx, ty, tz = rx - along * nx, ry - along * ny, rz - along * nz
                 sliding = math.sqrt(tx * tx + ty * ty + tz * tz)
@@ -487,12 +498,14 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
                     stick = sliding * facts[c, _REDUCED_MASS]  # the impulse that stops it
                     grip = (stick if stick <= static_friction * impulse
                             else kinetic_friction * impulse) / sliding
-                    v[a, 0] -= wi * grip * tx
-                    v[b, 0] += wj * grip * tx
-                    v[a, 1] -= wi * grip * ty
-                    v[b, 1] += wj * grip * ty
-                    v[a, 2] -= wi * grip * tz
-                    v[b, 2] += wj * grip * tz
+                    ax -= wi * grip * tx
+                    bx += wj * grip * tx
+                    ay -= wi * grip * ty
+                    by += wj * grip * ty
+                    az -= wi * grip * tz
+                    bz += wj * grip * tz
+            v[a, 0], v[a, 1], v[a, 2] = ax, ay, az
+            v[b, 0], v[b, 1], v[b, 2] = bx, by, bz
             if has_faces:
                 if on_face[a]:
                     _velocity_against_faces(faces, r[a], p, start, v, a, restitution,
