@@ -137,6 +137,7 @@ def pybullet_run(count):
 
 SAMPLE_STEPS = 10
 MIN_TIMED_S = 2.0  # each engine's runs add up to at least this, s
+MAX_RUNS = 200  # or it has run this often (a run of no steps takes no time)
 
 
 def deepest_overlap(simulation):
@@ -164,7 +165,8 @@ def measure(count, seconds, repeats):
     # A run of a few hundredths of a second is one slow spell away from double: the quick
     # engines run again, in turns, until each has MIN_TIMED_S of runs to take the median of.
     while True:
-        short = [name for name in engines if sum(times[name]) < MIN_TIMED_S]
+        short = [name for name in engines
+                 if sum(times[name]) < MIN_TIMED_S and len(times[name]) < MAX_RUNS]
         if not short:
             break
         for name in short:
@@ -197,7 +199,8 @@ def markdown(rows, seconds, repeats):
              '', f'{platform.processor() or platform.machine()}, one thread, '
              f'{seconds:g} s simulated at {RATE_HZ:g} Hz from a lattice above the water '
              f'(benchmarks/collisions.py), median of {repeats} runs in turns, then more of '
-             f'each engine whose runs added up to under {MIN_TIMED_S:g} s until they did '
+             f'each engine whose runs added up to under {MIN_TIMED_S:g} s until they did or it '
+             f'had run {MAX_RUNS} times '
              '(runs: ' + '; '.join(
                  f"{row['spheres']} spheres " + ', '.join(
                      f"{name} {row[name + ' runs']}" for name in ENGINES) for row in rows)
@@ -233,6 +236,8 @@ def main():
     parser.add_argument('--seconds', type=float, default=3.0)
     parser.add_argument('--repeats', type=int, default=3)
     args = parser.parse_args()
+    if round(args.seconds * RATE_HZ) < 1:
+        parser.error(f'--seconds: at least one step of {1 / RATE_HZ:g} s')
     rows = [measure(count, args.seconds, args.repeats) for count in args.counts]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
