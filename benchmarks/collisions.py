@@ -182,8 +182,8 @@ def measure(count, seconds, repeats):
     # not the end, is where spheres are pressed deepest into each other).
     simulation.reset()
     deepest = []
-    for _ in range(steps // SAMPLE_STEPS):
-        simulation.run(SAMPLE_STEPS, 1.0 / RATE_HZ)
+    for done in range(0, steps, SAMPLE_STEPS):
+        simulation.run(min(SAMPLE_STEPS, steps - done), 1.0 / RATE_HZ)
         deepest.append(deepest_overlap(simulation))
     row['deepest overlap during the run'] = max(deepest)
     row['median of the sampled deepest'] = float(np.median(deepest))
