@@ -53,15 +53,17 @@ _POSITION_SLOP = 0.05 * OVERLAP_TOLERANCE
 # The broad phase widens every sphere by this fraction of its radius: pairs at rest apart
 # by less than this of their radii's sum are (speculative) contacts too.
 SPECULATIVE_MARGIN = 0.02
-# An approach slower than _SETTLED_SPEED (m/s) plus _SETTLED_FRACTION x |g| dt counts as
-# none: float noise and solver lag, which the bottom-up sweep and the projection take care
-# of. Left, such a pair closes by at most a tenth of one step's fall (25 um at 200 Hz, far
-# inside OVERLAP_TOLERANCE). Sweeps spent below it only passed a pile's weight along:
-# 1 % (it was) swept half the contacts of a landing 10 000 all 12 sweeps; at 10 % half as
-# many fired, the scene cost ~8 % less, a resting pile ~20 %, and the 1 000-sphere pile
-# ended as still (rms 4.3-4.6 mm/s against 4.3-7.0, deepest overlap 0.9 % against 1.4 %).
+# An approach slower than _SETTLED_SPEED (m/s) plus a fraction of |g| dt counts as none:
+# float noise and solver lag, which the bottom-up sweep and the projection take care of.
+# The fraction is _SETTLED_ACROSS, up to _SETTLED_ALONG x the cosine between the normal
+# and gravity: sweeps spent below a tenth of a step's fall on weight-bearing contacts only
+# passed a pile's weight along (at 1 % throughout, half the contacts of a landing 10 000
+# fired in all 12 sweeps; at 10 % along gravity half as many), while a slow collision
+# across gravity is a collision all the same, and left unswept it would pass no momentum.
+# Such a pair closes by at most that speed x dt in the step, which the projection removes.
 _SETTLED_SPEED = 1e-9
-_SETTLED_FRACTION = 0.1
+_SETTLED_ACROSS = 0.01
+_SETTLED_ALONG = 0.1
 # Centres this much (of the radii's sum) beyond touching still touch: rounding.
 _TOUCHING = 1e-9
 # A contact whose normal is within 72 degrees of vertical can hold the upper sphere up
@@ -451,7 +453,10 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     # of whose spheres changed since its last visit is as it was, and is skipped.
     changed_in = np.zeros(members, dtype=np.int64)
     rebounded = np.zeros(members, dtype=np.bool_)  # bounced off a partner this step
-    settled = _SETTLED_SPEED + _SETTLED_FRACTION * resting_speed
+    settled_across = _SETTLED_SPEED + _SETTLED_ACROSS * resting_speed
+    # Down, as a unit vector x _SETTLED_ALONG x |g| dt (zero without gravity).
+    down = (_SETTLED_ALONG * gravity_step[0], _SETTLED_ALONG * gravity_step[1],
+            _SETTLED_ALONG * gravity_step[2]) if resting_speed > 0.0 else (0.0, 0.0, 0.0)
     for sweep in range(1, VELOCITY_SWEEPS + 1):
         changed = False
         for c in range(found):
@@ -468,6 +473,8 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
             ry = ay - by
             rz = az - bz
             approach = -(rx * nx + ry * ny + rz * nz) - facts[c, _ALLOWED]
+            settled = max(settled_across, _SETTLED_SPEED + abs(
+                nx * down[0] + ny * down[1] + nz * down[2]))
             if not approach > settled:
                 continue
             changed = True
