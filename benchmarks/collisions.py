@@ -1,6 +1,7 @@
 """Spheres dropped into the pool, colliding and settling: pool_sim with and without the
 `collisions` effect, beside MuJoCo (contacts and fluid on) and PyBullet, same spheres, same
-step, one run.
+step, in turns. results/collisions was written with `--seconds 2 --repeats 1` (PyBullet
+takes ~5 min a run at 10 000).
 
     .venv/bin/python -m benchmarks.collisions [--out results/collisions] [--counts 1000 10000]
         [--seconds 3]
