@@ -454,9 +454,9 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     changed_in = np.zeros(members, dtype=np.int64)
     rebounded = np.zeros(members, dtype=np.bool_)  # bounced off a partner this step
     settled_across = _SETTLED_SPEED + _SETTLED_ACROSS * resting_speed
-    # Down, as a unit vector x _SETTLED_ALONG x |g| dt (zero without gravity).
+    # Down, as a unit vector x _SETTLED_ALONG x |g| dt (gravity_step is zero without gravity).
     down = (_SETTLED_ALONG * gravity_step[0], _SETTLED_ALONG * gravity_step[1],
-            _SETTLED_ALONG * gravity_step[2]) if resting_speed > 0.0 else (0.0, 0.0, 0.0)
+            _SETTLED_ALONG * gravity_step[2])
     for sweep in range(1, VELOCITY_SWEEPS + 1):
         changed = False
         for c in range(found):
@@ -464,14 +464,9 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
             if changed_in[a] < sweep - 1 and changed_in[b] < sweep - 1:
                 continue
             nx, ny, nz = facts[c, _NX], facts[c, _NY], facts[c, _NZ]
-            # The pair's velocities in locals until the impulses are done: through the
-            # arrays every update waits for the store before it (a and b may alias, for
-            # all the compiler knows), and a fire costs several times more.
-            ax, ay, az = v[a, 0], v[a, 1], v[a, 2]
-            bx, by, bz = v[b, 0], v[b, 1], v[b, 2]
-            rx = ax - bx
-            ry = ay - by
-            rz = az - bz
+            rx = v[a, 0] - v[b, 0]
+            ry = v[a, 1] - v[b, 1]
+            rz = v[a, 2] - v[b, 2]
             approach = -(rx * nx + ry * ny + rz * nz) - facts[c, _ALLOWED]
             settled = max(settled_across, _SETTLED_SPEED + abs(
                 nx * down[0] + ny * down[1] + nz * down[2]))
@@ -488,16 +483,16 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
                 rebounded[a], rebounded[b] = True, True
             wi, wj = inverse_mass[a], inverse_mass[b]
             impulse = (approach + bounced) * facts[c, _REDUCED_MASS]  # N s along the normal
-            ax += wi * impulse * nx
-            bx -= wj * impulse * nx
-            ay += wi * impulse * ny
-            by -= wj * impulse * ny
-            az += wi * impulse * nz
-            bz -= wj * impulse * nz
+            v[a, 0] += wi * impulse * nx
+            v[b, 0] -= wj * impulse * nx
+            v[a, 1] += wi * impulse * ny
+            v[b, 1] -= wj * impulse * ny
+            v[a, 2] += wi * impulse * nz
+            v[b, 2] -= wj * impulse * nz
             if has_friction:
-                rx = ax - bx
-                ry = ay - by
-                rz = az - bz
+                rx = v[a, 0] - v[b, 0]
+                ry = v[a, 1] - v[b, 1]
+                rz = v[a, 2] - v[b, 2]
                 along = rx * nx + ry * ny + rz * nz
                 tx, ty, tz = rx - along * nx, ry - along * ny, rz - along * nz
                 sliding = math.sqrt(tx * tx + ty * ty + tz * tz)
@@ -505,14 +500,12 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
                     stick = sliding * facts[c, _REDUCED_MASS]  # the impulse that stops it
                     grip = (stick if stick <= static_friction * impulse
                             else kinetic_friction * impulse) / sliding
-                    ax -= wi * grip * tx
-                    bx += wj * grip * tx
-                    ay -= wi * grip * ty
-                    by += wj * grip * ty
-                    az -= wi * grip * tz
-                    bz += wj * grip * tz
-            v[a, 0], v[a, 1], v[a, 2] = ax, ay, az
-            v[b, 0], v[b, 1], v[b, 2] = bx, by, bz
+                    v[a, 0] -= wi * grip * tx
+                    v[b, 0] += wj * grip * tx
+                    v[a, 1] -= wi * grip * ty
+                    v[b, 1] += wj * grip * ty
+                    v[a, 2] -= wi * grip * tz
+                    v[b, 2] += wj * grip * tz
             if has_faces:
                 if on_face[a]:
                     _velocity_against_faces(faces, r[a], p, start, v, a, restitution,
