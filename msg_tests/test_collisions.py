@@ -151,6 +151,22 @@ def test_a_slow_collision_across_gravity_passes_its_momentum_on(rate_hz, speed):
     assert velocity_x == pytest.approx([speed / 2, speed / 2], rel=1e-9)
 
 
+@pytest.mark.parametrize('speed', [0.003, 0.03])
+def test_a_slow_collision_on_a_frictionless_floor_keeps_its_momentum(speed):
+    # Resting on the floor, one 3-30 mm/s toward the other: slower than a step's fall,
+    # so no rebound, and both move on at half the speed. The floor holds them up; it
+    # takes no momentum across without friction (found in review: the resting spheres'
+    # velocity, set to how far the projection moved them, left both at a third).
+    z = -4.0 + 0.05
+    sim = Simulation(spheres_scene([(-0.2, 0, z), (0.0, 0, z)], [(speed, 0, 0), (0, 0, 0)],
+                                   effects=['gravity', 'contact', 'collisions'],
+                                   physics_rate_hz=200.0, water__surface_z=-10.0))
+    sim.advance(0.2 / speed)
+    assert sim.spheres.velocity[0] == pytest.approx([speed / 2, speed / 2], rel=1e-9)
+    assert np.abs(sim.spheres.velocity[1:]).max() <= 1e-12
+    assert sim.spheres.position[2] == pytest.approx([z, z], abs=1e-12)
+
+
 @pytest.mark.parametrize('direction', [1.0, -1.0])
 def test_newtons_cradle_passes_the_momentum_along_the_row(direction):
     # Five equal spheres touching at rest; a sixth hits the row at 1 m/s, restitution 1:
