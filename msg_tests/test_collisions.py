@@ -155,8 +155,8 @@ def test_a_slow_collision_across_gravity_passes_its_momentum_on(rate_hz, speed):
 def test_a_slow_collision_on_a_frictionless_floor_keeps_its_momentum(speed):
     # Resting on the floor, one 3-30 mm/s toward the other: slower than a step's fall,
     # so no rebound, and both move on at half the speed. The floor holds them up; it
-    # takes no momentum across without friction (found in review: the resting spheres'
-    # velocity, set to how far the projection moved them, left both at a third).
+    # takes no momentum across without friction (before: the resting spheres' velocity,
+    # set to the step's move / dt, left both at a quarter of the speed they started with).
     z = -4.0 + 0.05
     sim = Simulation(spheres_scene([(-0.2, 0, z), (0.0, 0, z)], [(speed, 0, 0), (0, 0, 0)],
                                    effects=['gravity', 'contact', 'collisions'],
@@ -165,6 +165,28 @@ def test_a_slow_collision_on_a_frictionless_floor_keeps_its_momentum(speed):
     assert sim.spheres.velocity[0] == pytest.approx([speed / 2, speed / 2], rel=1e-9)
     assert np.abs(sim.spheres.velocity[1:]).max() <= 1e-12
     assert sim.spheres.position[2] == pytest.approx([z, z], abs=1e-12)
+
+
+@pytest.mark.parametrize('push', [0.7, 1.0, 1.3])
+def test_spheres_side_by_side_on_the_floor_slide_as_one_alone_does(push):
+    # With friction, under the default integrator, two spheres touching side by side and
+    # pushed alike (0.7-1.3 x their weight, along the row's normal) move as one alone does
+    # (found in review: the resting spheres' velocity set to the step's move / dt, the
+    # velocity at mid-step, held them to 0.44 of 2.89 m/s at 1.0 x their weight).
+    z = -4.0 + 0.05
+
+    def pushed(positions):
+        sim = Simulation(spheres_scene(
+            positions, effects=['gravity', 'contact', 'friction', 'collisions'],
+            integrator='linearly_implicit_euler', water__surface_z=-10.0))
+        for name in sim.spheres.names:
+            sim.set_external_force(name, (push * G, 0, 0))
+        sim.advance(0.5)
+        return sim.spheres.velocity
+
+    alone = pushed([(-3, 0, z)])[0, 0]
+    together = pushed([(-3, 0, z), (-3, 0.1, z)])
+    assert together[0] == pytest.approx([alone, alone], rel=1e-9)
 
 
 @pytest.mark.parametrize('direction', [1.0, -1.0])

@@ -421,6 +421,7 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     p = np.zeros((members, 4))  # position, m (the fourth column pads rows to 32 bytes)
     v = np.zeros((members, 4))  # velocity, m/s
     start = np.zeros((members, 4))  # position at the step's start, m
+    entry = np.zeros((members, 4))  # position before the sweeps, m
     inverse_mass = np.empty(members)  # 1/kg
     r = np.empty(members)  # radius, m
     on_face = np.zeros(members, dtype=np.bool_)
@@ -430,6 +431,7 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
             p[k, axis] = position[axis, i]
             v[k, axis] = velocity[axis, i]
             start[k, axis] = old_position[axis, i]
+            entry[k, axis] = position[axis, i]
         inverse_mass[k] = 1.0 / mass[i]
         r[k] = radius[i]
         if has_faces:
@@ -562,25 +564,29 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
         if worst <= 0.25 * OVERLAP_TOLERANCE:
             break
     if resting:
-        # A resting sphere moves as its position did, if that is slower: what is left of
-        # its velocity after the sweeps is the solver's lag, which the projection has
-        # undone in position (as position-based dynamics derives velocity). The floor
-        # below takes that momentum: all of it up and down, and across only with friction
-        # and no more than a step of Coulomb friction under the sphere's weight gives
-        # (when it took any, two spheres on a frictionless floor met at 3 cm/s and went
-        # on with a third less momentum than they had).
+        # A resting sphere moves up and down as its position did, if that is slower: what
+        # is left of its velocity after the sweeps is the solver's lag, which the
+        # projection has undone in position (as position-based dynamics derives velocity),
+        # and the floor below takes that momentum. Across, the floor takes momentum only
+        # by friction: there the velocity takes on what the projection itself moved the
+        # sphere / dt, if that slows it, and only with friction, by at most a step of
+        # Coulomb friction under its weight (mu_s |g| dt). The whole step's move / dt, as
+        # it was, took momentum no floor gives up (two spheres meeting slowly on a
+        # frictionless floor kept half of theirs), and under any integrator but
+        # semi-implicit Euler it is the velocity at mid-step: spheres touching one another
+        # on the floor, pushed, were held back as by friction twice.
         most_across = static_friction * resting_speed if has_friction else 0.0
         for k in range(members):
             if not supported[k] or rebounded[k]:
                 continue  # a bounce is not lag
-            moved = (p[k, 0] - start[k, 0], p[k, 1] - start[k, 1], p[k, 2] - start[k, 2])
-            if abs(moved[2]) < dt * abs(v[k, 2]):
-                v[k, 2] = moved[2] / dt
-            lag = (v[k, 0] - moved[0] / dt, v[k, 1] - moved[1] / dt)
-            if ((moved[0] * moved[0] + moved[1] * moved[1])
-                    < dt * dt * (v[k, 0] * v[k, 0] + v[k, 1] * v[k, 1])
-                    and lag[0] * lag[0] + lag[1] * lag[1] <= most_across * most_across):
-                v[k, 0], v[k, 1] = moved[0] / dt, moved[1] / dt
+            moved = p[k, 2] - start[k, 2]
+            if abs(moved) < dt * abs(v[k, 2]):
+                v[k, 2] = moved / dt
+            sx, sy = (p[k, 0] - entry[k, 0]) / dt, (p[k, 1] - entry[k, 1]) / dt
+            tx, ty = v[k, 0] + sx, v[k, 1] + sy
+            if (tx * tx + ty * ty < v[k, 0] * v[k, 0] + v[k, 1] * v[k, 1]
+                    and sx * sx + sy * sy <= most_across * most_across):
+                v[k, 0], v[k, 1] = tx, ty
     put_back = 0
     for k in range(members):
         i = member[k]
