@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 
+from .collisions import workspace as collision_workspace
 from .effects import heave_added_masses
 from .media import cap_volume_integral, linear_volume_integral
 from .scene import LOCKSTEP_KEYS
@@ -49,7 +50,9 @@ class Simulation:
         self.recoveries = 0
         self._recovered = set()  # indices put back, until taken
         self._failed_step = {}  # index -> the last step (s) it was put back in
-        self._scratch = None  # the spare state, marks and failure flags, kept between calls
+        # The spare state, marks, failure flags and the collision pass's scratch, kept
+        # between calls.
+        self._scratch = None
         pool = self.environment.pool
         self._constants = (environment_array(self.environment),
                            np.concatenate([pool.corner_min, pool.corner_max]).astype(float),
@@ -78,7 +81,9 @@ class Simulation:
         if self._scratch is None or self._scratch[0].shape != spheres.position.shape:
             self._scratch = (np.empty_like(spheres.position), np.empty_like(spheres.velocity),
                              np.zeros(spheres.count, dtype=np.uint8),
-                             np.zeros(spheres.count, dtype=np.uint8))
+                             np.zeros(spheres.count, dtype=np.uint8),
+                             *collision_workspace(spheres.count if 'collisions' in
+                                                  self.scene['effects'] else 0))
         arrays = (spheres.position, spheres.velocity, spheres.mass, spheres.radius,
                   spheres.volume, spheres.cross_section, spheres.drag_coefficient,
                   spheres.lift_coefficient, spheres.lift_area, spheres.lift_normal,

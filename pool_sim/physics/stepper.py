@@ -88,7 +88,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
     def run_steps(position, velocity, mass, radius, volume, cross_section, drag_coefficient,
                   lift_coefficient, lift_area, lift_normal, external_force, lift_slope,
                   stall_angle, environment, pool, contact, spare_position, spare_velocity,
-                  flagged, failed, steps, dt):
+                  flagged, failed, collision_reals, collision_wholes, steps, dt):
         """Take `steps` steps of dt s in place; returns how many times the step guard put a
         sphere back (flagged in failed (n,), which must be zero on entry).
 
@@ -96,7 +96,8 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
         velocity, spare_position and spare_velocity, in turn), so the start of the step is
         still there for the few spheres that need it: those the smooth pass marks in
         flagged (n,) uint8, on or past a face or non-finite. The result ends in position
-        and velocity."""
+        and velocity. collision_reals, collision_wholes: the collision pass's scratch
+        (collisions.workspace; empty without collisions)."""
         gx, gy, gz = environment[0], environment[1], environment[2]
         air_density, wind_x, wind_y, wind_z = (environment[3], environment[4],
                                                environment[5], environment[6])
@@ -190,7 +191,8 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                 put_back += resolve_collisions(
                     old_position, old_velocity, new_position, new_velocity, mass, radius,
                     faces, has_contact, contact_parameters, has_friction,
-                    resting_speed, gravity_step, floor_supports, failed, dt)
+                    resting_speed, gravity_step, floor_supports, failed, collision_reals,
+                    collision_wholes, dt)
         if steps % 2 == 1:  # the last step wrote the spare pair
             for i in range(count):
                 for axis in range(3):
@@ -246,7 +248,7 @@ class Stepper:
     def run(self, arrays, scratch, steps, dt):
         """`steps` steps of dt s on arrays (the kernel's leading arguments, as
         Simulation packs them) with scratch = (spare_position, spare_velocity, flagged,
-        failed).
+        failed, collision_reals, collision_wholes).
 
         Returns how many times the guard put a sphere back."""
         global _threading_layer
