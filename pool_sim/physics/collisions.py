@@ -120,8 +120,11 @@ def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
     """_find_contacts with arrays of its own (for tests and diagnostics): its first five
     results."""
     none = np.empty(0), np.empty(0, dtype=np.int64)
-    pairs, normals, excess, added, closing, _, _ = _find_contacts(
+    rows, normals, excess, added, closing, order, _, _, _ = _find_contacts(
         old_position, old_velocity, position, velocity, radius, dt, none[0], none[1])
+    pairs = np.empty_like(rows)
+    for c in range(rows.shape[1]):
+        pairs[0, c], pairs[1, c] = order[rows[0, c]], order[rows[1, c]]
     return pairs, normals, excess, added, closing
 
 
@@ -129,7 +132,9 @@ def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
 def _find_contacts(old_position, old_velocity, position, velocity, radius, dt, reals,
                    wholes):
     """Pairs in contact this step: (pairs (2, m) int64, normals (3, m), excess (m,) m/s,
-    added (m,) m/s, closing (m,) m/s), m the number of contacts.
+    added (m,) m/s, closing (m,) m/s, order (n,) int64, state (n, 16), used reals, used
+    wholes), m the number of contacts. A pair is two rows of state, which holds the
+    spheres in cell order (sphere order[k] in row k; its columns are below).
 
     normal: unit, from the second sphere toward the first, at the time of impact (at the
     step's start for a pair already touching then; at its end for a speculative one).
@@ -253,17 +258,15 @@ def _find_contacts(old_position, old_velocity, position, velocity, radius, dt, r
         _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_bound,
                          largest, low, size, candidates)
     # Every candidate is a contact: touching within the step, or speculative (_narrow_phase).
-    pairs, used_whole = _take(wholes, used_whole, 2 * total)
-    pairs = pairs.reshape((2, total))
     facts, used_real = _take(reals, used_real, 6 * total)
     facts = facts.reshape((6, total))  # normal (3), excess, added, closing
     for c in range(total):
-        k, m = candidates[0, c], candidates[1, c]
-        normal, excess, added, closing = _narrow_phase(sorted_state, k, m, dt)
-        pairs[0, c], pairs[1, c] = order[k], order[m]
+        normal, excess, added, closing = _narrow_phase(sorted_state, candidates[0, c],
+                                                       candidates[1, c], dt)
         facts[0, c], facts[1, c], facts[2, c] = normal
         facts[3, c], facts[4, c], facts[5, c] = excess, added, closing
-    return pairs, facts[:3], facts[3], facts[4], facts[5], used_real, used_whole
+    return (candidates[:, :total], facts[:3], facts[3], facts[4], facts[5], order,
+            sorted_state, used_real, used_whole)
 
 
 @numba.njit(error_model='numpy')
@@ -455,29 +458,32 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     scratch its arrays come from (see workspace; empty ones will do)."""
     if radius.size < 2:
         return 0
-    pairs, normals, excess, added, closing, used_real, used_whole = _find_contacts(
-        old_position, old_velocity, position, velocity, radius, dt, reals, wholes)
+    (pairs, normals, excess, added, closing, order, state, used_real,
+     used_whole) = _find_contacts(old_position, old_velocity, position, velocity, radius,
+                                  dt, reals, wholes)
     found = pairs.shape[1]
     if found == 0:
         return 0
+    count = radius.size
     restitution, static_friction, kinetic_friction = contact[0], contact[1], contact[2]
-    # The sweeps run on copies in rows: each sphere in contact (in the order the contacts,
-    # found in cell order, first meet it) has its x, y, z in one cache line, and each
-    # contact its facts in one row, so a sweep reads memory near what it just read.
-    row_of, used_whole = _take(wholes, used_whole, radius.size)
+    # The sweeps run on copies in rows: each sphere in contact (in cell order) has its x,
+    # y, z in one cache line, and each contact its facts in one row, so a sweep reads
+    # memory near what it just read.
+    row_of, used_whole = _take(wholes, used_whole, count)  # state's row -> ours, or -1
     row_of[:] = -1
-    member, used_whole = _take(wholes, used_whole, 2 * found)  # row -> sphere
+    for c in range(found):
+        row_of[pairs[0, c]], row_of[pairs[1, c]] = 0, 0
+    member, used_whole = _take(wholes, used_whole, count)  # our row -> state's
+    members = 0
+    for k in range(count):
+        if row_of[k] == 0:
+            row_of[k] = members
+            member[members] = k
+            members += 1
     ends, used_whole = _take(wholes, used_whole, 2 * found)
     ends = ends.reshape((found, 2))  # contact -> its two rows
-    members = 0
     for c in range(found):
-        for side in range(2):
-            i = pairs[side, c]
-            if row_of[i] < 0:
-                row_of[i] = members
-                member[members] = i
-                members += 1
-            ends[c, side] = row_of[i]
+        ends[c, 0], ends[c, 1] = row_of[pairs[0, c]], row_of[pairs[1, c]]
     rows, used_real = _take(reals, used_real, 16 * members)
     rows = rows.reshape((4, members, 4))  # the fourth column pads a row to 32 bytes
     rows[:, :, 3] = 0.0
@@ -489,14 +495,14 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     r, used_real = _take(reals, used_real, members)  # radius, m
     on_face = np.zeros(members, dtype=np.bool_)
     for k in range(members):
-        i = member[k]
-        for axis in range(3):
-            p[k, axis] = position[axis, i]
-            v[k, axis] = velocity[axis, i]
-            start[k, axis] = old_position[axis, i]
-            entry[k, axis] = position[axis, i]
-        inverse_mass[k] = 1.0 / mass[i]
-        r[k] = radius[i]
+        row = member[k]
+        for axis in range(3):  # as _find_contacts' state holds them
+            p[k, axis] = state[row, 3 + axis]
+            v[k, axis] = state[row, 9 + axis]
+            start[k, axis] = state[row, axis]
+            entry[k, axis] = state[row, 3 + axis]
+        inverse_mass[k] = 1.0 / mass[order[row]]
+        r[k] = state[row, 12]
         if has_faces:
             on_face[k] = _on_a_face(faces, r[k], p, start, k)
     facts, used_real = _take(reals, used_real, 8 * found)
@@ -654,7 +660,7 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
                 v[k, 0], v[k, 1] = tx, ty
     put_back = 0
     for k in range(members):
-        i = member[k]
+        i = order[member[k]]
         for axis in range(3):
             position[axis, i] = p[k, axis]
             velocity[axis, i] = v[k, axis]
