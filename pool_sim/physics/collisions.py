@@ -556,16 +556,11 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
                 rebounded[a], rebounded[b] = True, True
             wi, wj = inverse_mass[a], inverse_mass[b]
             impulse = (approach + bounced) * facts[c, _REDUCED_MASS]  # N s along the normal
-            v[a, 0] += wi * impulse * nx
-            v[b, 0] -= wj * impulse * nx
-            v[a, 1] += wi * impulse * ny
-            v[b, 1] -= wj * impulse * ny
-            v[a, 2] += wi * impulse * nz
-            v[b, 2] -= wj * impulse * nz
+            fx, fy, fz = impulse * nx, impulse * ny, impulse * nz  # on the first sphere
             if has_friction:
-                rx = v[a, 0] - v[b, 0]
-                ry = v[a, 1] - v[b, 1]
-                rz = v[a, 2] - v[b, 2]
+                # The sliding the normal impulse leaves is the sliding before it (that
+                # impulse is along the normal): found from the same velocities, and both
+                # impulses applied at once.
                 along = rx * nx + ry * ny + rz * nz
                 tx, ty, tz = rx - along * nx, ry - along * ny, rz - along * nz
                 sliding = math.sqrt(tx * tx + ty * ty + tz * tz)
@@ -573,12 +568,13 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
                     stick = sliding * facts[c, _REDUCED_MASS]  # the impulse that stops it
                     grip = (stick if stick <= static_friction * impulse
                             else kinetic_friction * impulse) / sliding
-                    v[a, 0] -= wi * grip * tx
-                    v[b, 0] += wj * grip * tx
-                    v[a, 1] -= wi * grip * ty
-                    v[b, 1] += wj * grip * ty
-                    v[a, 2] -= wi * grip * tz
-                    v[b, 2] += wj * grip * tz
+                    fx, fy, fz = fx - grip * tx, fy - grip * ty, fz - grip * tz
+            v[a, 0] += wi * fx
+            v[b, 0] -= wj * fx
+            v[a, 1] += wi * fy
+            v[b, 1] -= wj * fy
+            v[a, 2] += wi * fz
+            v[b, 2] -= wj * fz
             if has_faces:
                 if on_face[a]:
                     _velocity_against_faces(faces, r[a], p, start, v, a, restitution,
