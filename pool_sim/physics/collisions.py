@@ -682,10 +682,14 @@ def _settle_on_floor(ends, facts, p, start, v, r, rebounded, faces, static_frict
     layers would keep velocities of order g dt unless swept ~k^2 times. The momentum so
     taken goes to the floor, as in a resting pile it does. ends, facts, p, start, v, r,
     rebounded: the rows of resolve_collisions; wholes from used_whole on: scratch (see
-    workspace). A sphere on the floor at the step's start or end rests on it. A sphere that bounced off a partner in this step neither rests nor
-    holds anything up: it is moving, and treating it as immovable would hand its speed, at
-    the floor's expense, to whatever lies on it (a light sphere on the floor, struck by a
-    heavy one, sent the heavy one up at its own rebound speed).
+    workspace). A sphere on the floor at the step's start or end rests on it. A sphere that
+    bounced off a partner in this step neither rests nor holds anything up: it is moving,
+    and treating it as immovable would hand its speed, at the floor's expense, to whatever
+    lies on it (a light sphere on the floor, struck by a heavy one, sent the heavy one up
+    at its own rebound speed). Nor does one rising faster than a step's fall
+    (resting_speed) hold anything up: it is leaving (a buoyant sphere on the floor, rising
+    at 0.44 m/s under one that slid across it, pushed that one on along their slanted
+    normal and was then stopped as resting: the pair gained energy).
 
     Returns supported (rows,) bool: the spheres found resting."""
     found = ends.shape[0]
@@ -725,10 +729,13 @@ def _settle_on_floor(ends, facts, p, start, v, r, rebounded, faces, static_frict
             c = order[k]
             if facts[c, _CLOSING] > resting_speed or carries[c] != 0:
                 continue  # apart by more than a step's fall: holds nothing up; or known
-            if facts[c, _NZ] > _BEARING and supported[ends[c, 1]]:
-                carries[c], upper = 1, ends[c, 0]
-            elif facts[c, _NZ] < -_BEARING and supported[ends[c, 0]]:
-                carries[c], upper = 2, ends[c, 1]
+            first, second = ends[c, 0], ends[c, 1]
+            if (facts[c, _NZ] > _BEARING and supported[second]
+                    and not v[second, 2] > resting_speed):  # rising: holds nothing up
+                carries[c], upper = 1, first
+            elif (facts[c, _NZ] < -_BEARING and supported[first]
+                    and not v[first, 2] > resting_speed):
+                carries[c], upper = 2, second
             else:
                 continue
             if rebounded[upper]:
