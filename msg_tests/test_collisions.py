@@ -258,8 +258,8 @@ def lattice(count, spacing, centre_z, seed=0, jitter=0.004):
     return position
 
 
-# Measured (2026-12-03): from 15 s to 30 s the 1 000 pile keeps compacting slowly, rms
-# speed 3.4-5.3 mm/s, fastest 1.5-8.6 cm/s, deepest overlap 0.80-1.13 % of a radius
+# Measured (2026-12-04): from 15 s to 30 s the 1 000 pile keeps compacting slowly, rms
+# speed 3.4-5.6 mm/s, fastest 1.6-7.4 cm/s, deepest overlap 0.81-1.14 % of a radius
 # (every 0.5 s).
 # Resting, not still: the bounds say so, with room for other machines' rounding.
 PILE_RMS_SPEED = 0.01  # m/s
