@@ -81,9 +81,9 @@ def workspace(count):
     """(reals (float64), wholes (int64)): 1-D scratch the collision pass of `count` spheres
     takes its large arrays from, step after step, instead of allocating them anew.
 
-    Allocating them each step cost more than the arrays' work: the node fixes glibc's mmap
-    threshold at 256 kB, so every one of them was mapped, page-faulted in and unmapped each
-    step (10 000 spheres landing: ~600 against ~455 ns a sphere-step). Sized for up to
+    The node fixes glibc's mmap threshold at 256 kB, so allocated anew each of them was
+    mapped, page-faulted in and unmapped every step (10 000 spheres landing, one A/B run
+    under that threshold: 600 against 491 ns a sphere-step). Sized for up to
     contact_capacity(count) contacts; a step with more takes fresh arrays for the rest.
     Pages never touched take no memory; no spheres (or one) take none at all."""
     if count < 2:
@@ -118,7 +118,7 @@ def _cell_of(coordinate, origin, size, cells):
 @numba.njit(error_model='numpy')
 def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
     """_find_contacts with arrays of its own (for tests and diagnostics): its first five
-    results."""
+    results, the pairs as sphere indices (not rows of its state)."""
     none = np.empty(0), np.empty(0, dtype=np.int64)
     rows, normals, excess, added, closing, order, _, _, _ = _find_contacts(
         old_position, old_velocity, position, velocity, radius, dt, none[0], none[1])
@@ -273,7 +273,7 @@ def _find_contacts(old_position, old_velocity, position, velocity, radius, dt, r
 def _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_bound, largest,
                      low, size, out):
     """The pairs (k, m) of cell-order rows whose bounding spheres meet, each once, written
-    into out (2, capacity) while they fit; returns how many there are (see find_contacts
+    into out (2, capacity) while they fit; returns how many there are (see _find_contacts
     for the grid)."""
     count = sorted_cell.shape[0]
     capacity = out.shape[1]
@@ -325,7 +325,7 @@ def _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_boun
 @numba.njit(error_model='numpy', inline='always')
 def _narrow_phase(state, i, j, dt):
     """(normal (3-tuple), excess m/s, added m/s, closing m/s) of the spheres of rows i, j
-    of state (find_contacts' sorted_state), whose bounding spheres met; see find_contacts."""
+    of state (_find_contacts' sorted_state), whose bounding spheres met; see _find_contacts."""
     reach = state[i, 12] + state[j, 12]
     d0 = (state[i, 0] - state[j, 0], state[i, 1] - state[j, 1], state[i, 2] - state[j, 2])
     d1 = (state[i, 3] - state[j, 3], state[i, 4] - state[j, 4], state[i, 5] - state[j, 5])
@@ -687,7 +687,7 @@ def _settle_on_floor(ends, facts, p, start, v, r, rebounded, faces, static_frict
     and treating it as immovable would hand its speed, at the floor's expense, to whatever
     lies on it (a light sphere on the floor, struck by a heavy one, sent the heavy one up
     at its own rebound speed). Nor does one on the floor rising faster than a step's fall
-    (resting_speed) hold anything up: it is leaving (a buoyant sphere rising off the floor
+    (resting_speed) hold anything up: it is lifting off (a buoyant sphere rising off the floor
     at 0.44 m/s under one that slid across it pushed that one on along their slanted
     normal and was then stopped as resting: the pair gained energy). Above the floor the
     rest correction below leaves a resting sphere rising by what the projection lifted it
@@ -723,7 +723,8 @@ def _settle_on_floor(ends, facts, p, start, v, r, rebounded, faces, static_frict
     for k in range(members):
         supported[k] = (min(p[k, 2], start[k, 2]) <= faces[2] + r[k] * (1.0 + 1e-9)
                         and not rebounded[k])
-        # On the floor and rising faster than a step's fall: leaving it, holds nothing up.
+        # On the floor and rising faster than a step's fall: lifting off, holds nothing up
+        # (it is still a resting sphere for the rest correction).
         lifting[k] = supported[k] and v[k, 2] > resting_speed
     # Who rests on what: sorted bottom up, a few passes reach every layer (a pass misses
     # only a sphere held up through one of its own layer met later).
