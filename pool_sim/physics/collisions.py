@@ -687,11 +687,11 @@ def _settle_on_floor(ends, facts, p, start, v, r, rebounded, faces, static_frict
     and treating it as immovable would hand its speed, at the floor's expense, to whatever
     lies on it (a light sphere on the floor, struck by a heavy one, sent the heavy one up
     at its own rebound speed). Nor does one on the floor rising faster than a step's fall
-    (resting_speed) hold anything up: it is lifting off (a buoyant sphere rising off the floor
-    at 0.44 m/s under one that slid across it pushed that one on along their slanted
+    (resting_speed) hold anything up: it is lifting off (a buoyant sphere rising off the
+    floor at 0.44 m/s under one that slid across it pushed that one on along their slanted
     normal and was then stopped as resting: the pair gained energy). Above the floor the
     rest correction below leaves a resting sphere rising by what the projection lifted it
-    (up to ~0.1 m/s): taking such spheres as leaving too left a pile's upper layers
+    (up to ~0.1 m/s): taking such spheres as lifting off too left a pile's upper layers
     unsettled, its late steps twice as dear.
 
     Returns supported (rows,) bool: the spheres found resting."""
