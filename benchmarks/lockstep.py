@@ -48,11 +48,11 @@ sys.path.insert(0, {tree!r}); sys.path.insert(0, {tree!r} + '/msg_tests')
 from ros_harness import Harness
 with Harness({{'real_time_factor': 0.0}}) as ros:
     ros.spin_for(1.0)
-    with ros.sim.lock:
-        s0, w0 = ros.sim.simulated_s, time.monotonic()
+    with ros.sim.lock():
+        s0, w0 = ros.sim.clock.simulated_s, time.monotonic()
     ros.spin_for(5.0)
-    with ros.sim.lock:
-        print((ros.sim.simulated_s - s0) / (time.monotonic() - w0))
+    with ros.sim.lock():
+        print((ros.sim.clock.simulated_s - s0) / (time.monotonic() - w0))
 '''
 
 
@@ -86,7 +86,7 @@ def lockstep_off(real_time_factor):
                  extra_nodes=[DepthKeeper]) as ros:
         started = time.perf_counter()
         ros.spin_until(lambda: ros.sim.simulation.time >= 20.0, 60.0)
-        with ros.sim.lock:
+        with ros.sim.lock():
             return (time.perf_counter() - started, ros.sim.simulation.sphere_state('ice')[0][2],
                     ros.sim.simulation.time)
 

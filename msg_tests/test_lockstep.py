@@ -61,7 +61,7 @@ def test_each_period_steps_once_however_often_a_controller_answers(pool_sim):
     twice = pool_sim(KEEPER_SCENE)
     twice.add(TwiceKeeper)
     assert digests(once, 5.0) == digests(twice, 5.0)
-    assert once.node.steps_taken == twice.node.steps_taken == 5 * 200  # 200 Hz physics
+    assert once.node.clock.steps_taken == twice.node.clock.steps_taken == 5 * 200  # 200 Hz physics
 
 
 def test_the_forces_array_answers_unstamped(pool_sim):
@@ -177,11 +177,11 @@ def test_step_is_refused_while_running_and_steps_one_period_while_paused(pool_si
     refused = sim.call(Trigger, 'step', Trigger.Request())
     assert not refused.success and 'not paused' in refused.message
     assert sim.call(SetBool, 'pause', SetBool.Request(data=True)).success
-    times, publishes = [sim.time], sim.node.publishes
+    times, publishes = [sim.time], sim.node.publishing.publishes
     for k in range(1, 4):
         answer = sim.call(Trigger, 'step', Trigger.Request())
         assert answer.success and answer.message.endswith(f't={sim.time:.9f} s')
-        assert sim.node.publishes == publishes + k  # that instant's state is out
+        assert sim.node.publishing.publishes == publishes + k  # that instant's state is out
         times.append(sim.time)
     # To the next publish instant (paused between two), then a period each (1/30 s on the
     # 200 Hz grid: 30 or 35 ms).
@@ -189,7 +189,7 @@ def test_step_is_refused_while_running_and_steps_one_period_while_paused(pool_si
     assert 0.0 < steps[0] <= 0.035 + 1e-9
     assert all(s == pytest.approx(0.03) or s == pytest.approx(0.035) for s in steps[1:])
     time.sleep(0.1)
-    assert sim.node.paused and sim.time == times[-1]
+    assert sim.node.clock.paused and sim.time == times[-1]
 
 
 @pytest.mark.parametrize('key, value, words', [
@@ -290,7 +290,7 @@ def test_an_unstamped_controller_is_never_sent_a_copy_it_would_answer_twice(pool
     slow = pool_sim(scene)
     slow.add(SlowFirstArrayKeeper)
     assert digests(slow, 3.0) == expected
-    assert slow.node.publishes == quick.node.publishes  # no copies sent
+    assert slow.node.publishing.publishes == quick.node.publishing.publishes  # no copies sent
 
 
 def test_a_stamp_after_the_newest_instant_answers_nothing(pool_sim, capfd):

@@ -192,7 +192,7 @@ def test_slow_publishing_does_not_give_up_simulated_time():
     with Harness({'real_time_factor': 1.0, 'publish_rate_hz': 0.01}) as ros:
         ros.spin_for(1.0)
         assert 0.8 < ros.sim.simulation.time < 1.2
-        assert ros.sim.given_up_s < 0.05
+        assert ros.sim.clock.given_up_s < 0.05
 
 
 @pytest.mark.parametrize('before_the_end', ['half a second', 'one step'])
@@ -203,11 +203,11 @@ def test_at_the_last_second_a_stamp_can_carry_the_node_pauses_and_reset_goes_on(
         poses = ros.collect(PoseArray, 'poses')
         # One step before the end: the steps left, counted in a double, round to none.
         # Under the node's lock: a tick's batch must not end after it, on top of it.
-        with ros.sim.lock:
+        with ros.sim.lock():
             ros.sim.simulation.time = LAST_STAMP_S - (
                 0.5 if before_the_end == 'half a second' else ros.sim.simulation.max_step)
             ros.sim.next_publish_time = ros.sim.simulation.time
-        assert ros.spin_until(lambda: ros.sim.paused)
+        assert ros.spin_until(lambda: ros.sim.clock.paused)
         assert ros.sim.simulation.time <= LAST_STAMP_S
         assert logs.said('error', 'the last a ROS time stamp can carry')
         assert not ros.call(SetBool, 'pause', SetBool.Request(data=False)).success
@@ -215,7 +215,7 @@ def test_at_the_last_second_a_stamp_can_carry_the_node_pauses_and_reset_goes_on(
         assert all(stamp_seconds(p.header) <= LAST_STAMP_S + 1 for p in poses)
         assert ros.call(Trigger, 'reset', Trigger.Request()).success
         assert ros.spin_until(lambda: 0.0 < ros.sim.simulation.time < 100.0)
-        assert not ros.sim.paused
+        assert not ros.sim.clock.paused
 
 
 @pytest.mark.parametrize('force', [1e160, -1e308, 1.5e9, math.nan, math.inf])

@@ -367,7 +367,7 @@ def test_replacing_every_sphere_with_arrays_keeps_none_and_starts_the_new_ones()
         result = atomically(ros, sphere_names=['n0', 'n1'], spheres__position__x=[0.0] * 2,
                             spheres__position__y=[0.0] * 2, spheres__position__z=[0.0] * 2)
         assert result.successful, result.reason
-        with ros.sim.lock:
+        with ros.sim.lock():
             assert ros.sim.simulation.spheres.names == ('n0', 'n1')
             assert list(ros.sim.simulation.spheres.mass) == [1.0, 1.0]
 
@@ -381,7 +381,7 @@ def test_a_spawn_by_set_parameters_as_ros2_param_load_sends_it_is_applied_togeth
             ParameterMessage(name='buoy.mass', value=value_of(2.0))])
         results = ros.call(SetParameters, 'set_parameters', request).results
         assert [r.successful for r in results] == [True] * 4, [r.reason for r in results]
-        with ros.sim.lock:
+        with ros.sim.lock():
             spheres = ros.sim.simulation.spheres
             assert spheres.names == ('cork', 'buoy') and list(spheres.mass) == [9.0, 2.0]
             assert ros.sim.scene['buoy.position'] == (1.0, 1.0, 2.0)
@@ -412,15 +412,15 @@ def test_a_radius_of_the_wrong_type_or_beyond_range_is_refused_not_raised():
 
 def test_array_lift_areas_given_with_new_radii_are_applied_as_given():
     with Harness({**FAST, 'per_sphere_topics': False}) as ros:
-        with ros.sim.lock:
+        with ros.sim.lock():
             radius = ros.sim.simulation.spheres.radius.tolist()
             areas = ros.sim.simulation.spheres.lift_area.tolist()
         assert atomically(ros, spheres__radius=[r * 1.5 for r in radius],
                           spheres__lift_area=areas).successful
-        with ros.sim.lock:
+        with ros.sim.lock():
             assert ros.sim.simulation.spheres.lift_area.tolist() == areas
             assert list(ros.sim.get_parameter('spheres.lift_area').value) == areas
         # A radius alone: the areas follow, in the table too.
         assert atomically(ros, spheres__radius=radius).successful
-        with ros.sim.lock:
+        with ros.sim.lock():
             assert ros.sim.simulation.spheres.lift_area.tolist() == areas

@@ -8,7 +8,7 @@ import pytest
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
-from pool_sim.ros import simulator_node
+from pool_sim.ros import clock
 from ros_harness import Harness, stamp_seconds
 
 FAST = {'real_time_factor': 0.0}
@@ -141,8 +141,8 @@ def test_reset_restores_the_initial_scene_and_time_zero():
         # The node's own account (its status line) still counts the steps before the reset.
         # Read both clocks together, between two ticks: at 4x the simulation passes 1 s
         # again within a quarter second of wall time.
-        with ros.sim.lock:
-            simulated, since_reset = ros.sim.simulated_s, ros.sim.simulation.time
+        with ros.sim.lock():
+            simulated, since_reset = ros.sim.clock.simulated_s, ros.sim.simulation.time
             assert ros.sim.time_report().startswith(f'{simulated:.2f} s simulated')
         assert since_reset < 1.0 < simulated - since_reset
         assert ros.spin_until(lambda: any(stamp_seconds(p.header) == 0.0 for p in poses))
@@ -185,15 +185,15 @@ def test_a_wrench_waiting_for_the_next_tick_does_not_outlive_a_reset():
 def test_a_node_that_falls_behind_drops_the_backlog_and_says_how_much():
     with Harness({'real_time_factor': 1.0}) as ros:
         assert ros.spin_until(lambda: ros.sim.simulation.time > 0.2)
-        before, given_up_before = ros.sim.simulation.time, ros.sim.given_up_s
-        with ros.sim.lock:  # between two ticks of the clock thread
-            ros.sim.last_wall -= 1.0  # as if the process had stalled for a second
-            ros.sim._on_tick()
+        before, given_up_before = ros.sim.simulation.time, ros.sim.clock.given_up_s
+        with ros.sim.lock():  # between two ticks of the clock thread
+            ros.sim.clock.last_wall -= 1.0  # as if the process had stalled for a second
+            ros.sim.clock.tick()
         caught_up = ros.sim.simulation.time - before
         assert caught_up == pytest.approx(0.1, abs=0.006)  # the bound, to a step
         # The stall, plus the moments since the last tick, less what was caught up.
-        assert 0.89 <= ros.sim.given_up_s - given_up_before <= 1.2
-        assert f'{ros.sim.given_up_s:.2f} s given up to the catch-up bound' in \
+        assert 0.89 <= ros.sim.clock.given_up_s - given_up_before <= 1.2
+        assert f'{ros.sim.clock.given_up_s:.2f} s given up to the catch-up bound' in \
             ros.sim.time_report()
 
 
@@ -204,25 +204,25 @@ def test_a_node_behind_real_time_ticks_again_at_once_and_one_on_time_waits_its_p
     with Harness({'real_time_factor': 1.0}) as ros:
         assert ros.spin_until(lambda: ros.sim.simulation.time > 0.05)
         waits = []
-        wait = ros.sim.clock_wake.wait
-        monkeypatch.setattr(ros.sim.clock_wake, 'wait',
+        wait = ros.sim.clock.wake.wait
+        monkeypatch.setattr(ros.sim.clock.wake, 'wait',
                             lambda timeout=None: (waits.append(timeout), wait(timeout))[1])
-        with ros.sim.lock:  # between two ticks of the clock thread
-            ros.sim.last_wall -= 0.05
-            assert ros.sim._on_tick() is False  # three spheres catch up within the budget
-            monkeypatch.setattr(simulator_node, 'TICK_BUDGET_S', 0.0)  # no time to step
-            ros.sim.last_wall -= 0.05
-            assert ros.sim._on_tick() is True
+        with ros.sim.lock():  # between two ticks of the clock thread
+            ros.sim.clock.last_wall -= 0.05
+            assert ros.sim.clock.tick() is False  # three spheres catch up within the budget
+            monkeypatch.setattr(clock, 'TICK_BUDGET_S', 0.0)  # no time to step
+            ros.sim.clock.last_wall -= 0.05
+            assert ros.sim.clock.tick() is True
             waits.clear()
         assert ros.spin_until(lambda: len(waits) >= 3)
-        assert set(waits[:3]) == {simulator_node.TICK_PERIOD_RANGE_S[0]}
-        monkeypatch.setattr(simulator_node, 'TICK_BUDGET_S', 0.02)
-        assert ros.spin_until(lambda: ros.sim.backlog_s < ros.sim.simulation.max_step)
+        assert set(waits[:3]) == {clock.TICK_PERIOD_RANGE_S[0]}
+        monkeypatch.setattr(clock, 'TICK_BUDGET_S', 0.02)
+        assert ros.spin_until(lambda: ros.sim.clock.backlog_s < ros.sim.simulation.max_step)
         count = len(waits)
         assert ros.spin_until(lambda: len(waits) >= count + 3)
-        assert waits[-1] == pytest.approx(ros.sim.tick_period)
-        assert ros.sim.tick_period == pytest.approx(1 / 30)  # the default 30 Hz publishing
-        with ros.sim.lock:
-            ros.sim.paused = True
-            assert ros.sim._on_tick() is False  # paused is not behind
-            ros.sim.paused = False
+        assert waits[-1] == pytest.approx(ros.sim.clock.tick_period)
+        assert ros.sim.clock.tick_period == pytest.approx(1 / 30)  # the default 30 Hz publishing
+        with ros.sim.lock():
+            ros.sim.clock.paused = True
+            assert ros.sim.clock.tick() is False  # paused is not behind
+            ros.sim.clock.paused = False

@@ -9,7 +9,7 @@ from the whole double range, of any shape, for any frame; pause; reset; letting 
 
 The model tracks the sphere names and every sphere's mass and radius, and says before each
 request whether the node must accept or refuse it. After every rule, read between two ticks
-of the clock thread (under node.lock): the node answers within a bound, its names, masses
+of the clock thread (under node.lock()): the node answers within a bound, its names, masses
 and radii (simulation and parameters) are the model's, every external force is finite and
 within the force limit, and every state and published pose is finite and inside the pool.
 """
@@ -223,7 +223,7 @@ class LiveNode(RuleBasedStateMachine):
                                                         self.ros.topic('wrench'), 10)
         self.forces = self.ros.client.create_publisher(Float64MultiArray,
                                                        self.ros.topic('forces'), 10)
-        with self.ros.sim.lock:
+        with self.ros.sim.lock():
             spheres = self.ros.sim.simulation.spheres
             self.names = list(spheres.names)
             self.initial = {name: {'mass': float(spheres.mass[i]),
@@ -376,7 +376,7 @@ class LiveNode(RuleBasedStateMachine):
             entries[f'{sphere}.{key}'] = data.draw(values[key], label=f'{sphere}.{key}')
         why_refused = spawn_refusal(current, final, entries)
 
-        with self.ros.sim.lock:
+        with self.ros.sim.lock():
             before = {name: self.ros.sim.simulation.sphere_state(name) for name in current}
         request = SetParametersAtomically.Request(parameters=[
             ParameterMessage(name='sphere_names', value=names_value(final))] + [
@@ -387,7 +387,7 @@ class LiveNode(RuleBasedStateMachine):
         event(f'spawn {mode}: ' + ('accepted' if why_refused is None else 'refused'))
         if not result.successful:
             self.assert_refused_with_reason(result)
-            with self.ros.sim.lock:  # nothing of it was declared
+            with self.ros.sim.lock():  # nothing of it was declared
                 for name in set(final) - set(current):
                     assert not self.ros.sim.has_parameter(f'{name}.mass'), name
             return
@@ -401,11 +401,11 @@ class LiveNode(RuleBasedStateMachine):
             if sphere in current and key in TRACKED:
                 self.expected[sphere][key] = float(value)
         self.names_changed_to(final, new_values)
-        with self.ros.sim.lock:
+        with self.ros.sim.lock():
             self.check_spawned(current, final, entries, new_values, before)
 
     def check_spawned(self, current, final, entries, new_values, before):
-        """After an accepted spawn (under node.lock): the removed spheres' parameters are
+        """After an accepted spawn (under node.lock()): the removed spheres' parameters are
         gone, the new ones' are declared as given, and while paused no state moved."""
         node, simulation = self.ros.sim, self.ros.sim.simulation
         for name in set(current) - set(final):
@@ -511,7 +511,7 @@ class LiveNode(RuleBasedStateMachine):
         first = f'{self.names[0]}.mass'
         [answer] = self.call('get_parameters', GetParameters.Request(names=[first])).values
         assert answer.type == ParameterType.PARAMETER_DOUBLE
-        with self.ros.sim.lock:  # between two ticks: one consistent look
+        with self.ros.sim.lock():  # between two ticks: one consistent look
             node, spheres = self.ros.sim, self.ros.sim.simulation.spheres
             names = spheres.names
             live = {key: getattr(spheres, key).tolist() for key in TRACKED}

@@ -142,7 +142,7 @@ class PoolSim:
     @property
     def time(self) -> float:
         """Simulated seconds."""
-        with self.node.lock:
+        with self.node.lock():
             return self.node.simulation.time
 
     def advance(self, seconds: float) -> float:
@@ -152,15 +152,15 @@ class PoolSim:
         last instant is published: your nodes get it as the executor next runs (the next
         advance, or spin)."""
         node = self.node
-        if node.clock_thread is not None:
+        if node.runs_clock:
             raise RuntimeError('advance() drives a node without a clock thread '
                                '(run_clock=False); this one runs its own')
-        with node.lock:
+        with node.lock():
             target = node.simulation.time + seconds
             half_step = 0.5 * node.simulation.max_step
         while self.time < target - half_step:
             self.spin_until_answered()
-            if not node.advance_period():
+            if not node.advance():
                 raise RuntimeError('simulated time reached the last a ROS stamp can carry')
         return self.time
 
@@ -171,8 +171,8 @@ class PoolSim:
             self._joined = False
             node.republish_state()
         self.executor.spin_once(timeout_sec=0.0)  # what was just published, to every node
-        while not node.lockstep_ready():
-            self.executor.spin_once(timeout_sec=min(node.lockstep.wall_left(), 0.1))
+        while not node.ready():
+            self.executor.spin_once(timeout_sec=min(node.wait_left_s(), 0.1))
 
     def spin(self, predicate, timeout_s=10.0):
         """Run callbacks (time goes on only with the clock thread) until predicate() holds,
@@ -188,27 +188,27 @@ class PoolSim:
     def holds(self, predicate):
         if self.node is None:
             return predicate()
-        with self.node.lock:
+        with self.node.lock():
             return predicate()
 
     # -- the state and the forces -----------------------------------------------------------
 
     def state(self, sphere):
         """(position (3,), velocity (3,)) of a sphere, m and m/s: copies."""
-        with self.node.lock:
+        with self.node.lock():
             return self.node.simulation.sphere_state(sphere)
 
     def states(self):
         """(n, 6) array: every sphere's [x, y, z, vx, vy, vz], in sphere_names order, as
         ~/states carries it."""
         import numpy as np
-        with self.node.lock:
+        with self.node.lock():
             spheres = self.node.simulation.spheres
             return np.vstack([spheres.position, spheres.velocity]).T.copy()
 
     def force(self, sphere):
         """The external force (3,) N acting on a sphere now."""
-        with self.node.lock:
+        with self.node.lock():
             spheres = self.node.simulation.spheres
             return spheres.external_force[:, spheres.lookup(sphere)].copy()
 

@@ -139,17 +139,34 @@ class Simulation:
         if steps:
             self.run(steps, duration / steps)
 
+    def check_change(self, name, key, value):
+        """A live change of sphere `name`: key 'mass' (kg), 'radius' (m) or 'lift_area'
+        (m^2), checked once; apply_change writes it. InvalidInput if refused."""
+        return self.spheres.check_change(name, key, value, self.environment.pool)
+
+    def apply_change(self, change):
+        """Write a change check_change accepted (before any spawn or remove since)."""
+        self.spheres.apply_change(change, self.environment.pool)
+
     def set_mass(self, name, mass_kg):
-        self.spheres.set_mass(name, mass_kg)
+        self.apply_change(self.check_change(name, 'mass', mass_kg))
 
     def set_radius(self, name, radius_m):
-        self.spheres.set_radius(name, radius_m, self.environment.pool)
+        self.apply_change(self.check_change(name, 'radius', radius_m))
 
     def set_lift_area(self, name, area_m2):
-        self.spheres.set_lift_area(name, area_m2)
+        self.apply_change(self.check_change(name, 'lift_area', area_m2))
 
     def set_external_force(self, name, force_n):
         self.spheres.set_external_force(name, force_n)
+
+    def set_external_forces(self, forces_n):
+        """(n, 3) N, every sphere at once, in sphere order; checked, InvalidInput if not."""
+        self.spheres.set_external_forces(forces_n)
+
+    def release_external_forces(self, which):
+        """No external force on the spheres `which` selects (a bool mask or indices)."""
+        self.spheres.release_external_forces(which)
 
     def change_spheres(self, scene):
         """Go on with the spheres of `scene` (a Scene whose global keys are this one's): it

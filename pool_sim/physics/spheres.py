@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import math
 import numbers
 import re
+from typing import NamedTuple
 
 import numpy as np
 
@@ -221,31 +222,82 @@ class Spheres:
         self.lookup(name)
         return check_number(f'{name}.lift_area', area_m2, *LIFT_AREA_RANGE_M2, 'm^2')
 
+    def check_change(self, name: str, key: str, value, pool) -> 'CheckedChange':
+        """A live change of one sphere's mass (kg), radius (m) or lift_area (m^2), checked
+        once here; apply_change writes it without checking again. InvalidInput if refused."""
+        if key == 'mass':
+            value = self.check_mass(name, value)
+        elif key == 'radius':
+            value = self.check_radius(name, value, pool)
+        elif key == 'lift_area':
+            value = self.check_lift_area(name, value)
+        else:
+            raise InvalidInput(f'{name}.{key}: cannot change while running (only '
+                               f'{", ".join(LIVE_KEYS)} can)')
+        return CheckedChange(self.lookup(name), key, value)
+
+    def apply_change(self, change: 'CheckedChange', pool) -> None:
+        """Write a change check_change made (for these spheres: indices are theirs). A new
+        radius keeps volume, cross-section and a following lift area in step and pushes the
+        sphere back inside the pool; a lift area given stops following the radius."""
+        i, value = change.index, change.value
+        if change.key == 'mass':
+            self.mass[i] = value
+        elif change.key == 'radius':
+            self.radius[i] = value
+            self.volume[i] = 4.0 / 3.0 * np.pi * value**3
+            self.cross_section[i] = np.pi * value**2
+            if self.lift_area_follows_radius[i]:
+                self.lift_area[i] = math.pi * value * value  # as the scene's default
+            self.position[:, i] = np.clip(
+                self.position[:, i], pool.corner_min + value, pool.corner_max - value)
+        else:
+            self.lift_area[i] = value
+            self.lift_area_follows_radius[i] = False
+
     def set_mass(self, name: str, mass_kg) -> None:
-        self.mass[self.lookup(name)] = self.check_mass(name, mass_kg)
+        self.apply_change(self.check_change(name, 'mass', mass_kg, None), None)
 
     def set_radius(self, name: str, radius_m, pool) -> None:
         """New radius; the sphere is pushed back inside the pool if it now overlaps a wall."""
-        radius = self.check_radius(name, radius_m, pool)
-        i = self.lookup(name)
-        self.radius[i] = radius
-        self.volume[i] = 4.0 / 3.0 * np.pi * radius**3
-        self.cross_section[i] = np.pi * radius**2
-        if self.lift_area_follows_radius[i]:
-            self.lift_area[i] = math.pi * radius * radius  # as the scene's default
-        self.position[:, i] = np.clip(
-            self.position[:, i], pool.corner_min + radius, pool.corner_max - radius)
+        self.apply_change(self.check_change(name, 'radius', radius_m, pool), pool)
 
     def set_lift_area(self, name: str, area_m2) -> None:
         """New lift area (m^2); from now on it stays when the radius changes."""
-        area = self.check_lift_area(name, area_m2)
-        i = self.lookup(name)
-        self.lift_area[i] = area
-        self.lift_area_follows_radius[i] = False
+        self.apply_change(self.check_change(name, 'lift_area', area_m2, None), None)
 
     def set_external_force(self, name: str, force_n) -> None:
         i = self.lookup(name)
         self.external_force[:, i] = check_external_force(f'{name} wrench force', force_n)
+
+    def set_external_forces(self, forces_n) -> None:
+        """Every sphere's external force at once: forces_n (n, 3) N in sphere order, each
+        row checked (finite, within FORCE_LIMIT_N); InvalidInput naming the first bad row,
+        and nothing written."""
+        forces = np.asarray(forces_n, dtype=float)
+        if forces.shape != (self.count, 3):
+            raise InvalidInput(f'expected ({self.count}, 3) forces, got shape {forces.shape}')
+        bad = ~(np.isfinite(forces) & (np.abs(forces) <= FORCE_LIMIT_N)).all(axis=1)
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            check_external_force(f'row {row} ({self.names[row]})', forces[row])  # raises
+        self.external_force[:] = forces.T
+
+    def release_external_forces(self, which) -> None:
+        """No external force from now on on the spheres `which` selects (a (n,) bool mask
+        or indices): their input timed out."""
+        self.external_force[:, which] = 0.0
+
+
+class CheckedChange(NamedTuple):
+    """A live change Spheres.check_change accepted: write it with apply_change."""
+    index: int  # the sphere's index in the Spheres that checked it
+    key: str  # 'mass' (kg), 'radius' (m) or 'lift_area' (m^2)
+    value: float
+
+
+# What may change on a sphere while the simulation runs.
+LIVE_KEYS = ('mass', 'radius', 'lift_area')
 
 
 _ARRAY_FIELDS = ('position', 'velocity', 'mass', 'radius', 'drag_coefficient', 'lift_area',

@@ -27,7 +27,7 @@ from std_msgs.msg import Float64MultiArray
 
 from pool_sim.physics import InvalidInput
 from pool_sim.physics.scene import FORCES_INPUT
-from pool_sim.physics.spheres import check_external_force, FORCE_LIMIT_N, shortened
+from pool_sim.physics.spheres import shortened
 from pool_sim.ros.services import THROTTLE_S
 ALL_SPHERES = object()  # the pending key of a ~/forces array
 
@@ -59,6 +59,9 @@ class ForceInputs:
                                  event_callbacks=self.no_default_events)
         self.per_sphere_topics = per_sphere_topics
         self.per_sphere = {}
+        # The wrench clock: when each sphere's force was last set (simulated s), in sphere
+        # order; -inf for never, +inf once released by the timeout.
+        self.set_at = np.full(len(names), -math.inf)
         self.add_spheres(names)
 
     # -- subscriptions -----------------------------------------------------------------------
@@ -118,11 +121,19 @@ class ForceInputs:
         self._put(ALL_SPHERES, message)
 
     def clear(self):
-        """Forget what waits and what was answered (a reset: time starts again at 0)."""
+        """Forget what waits, what was answered and when forces were set (a reset: time
+        starts again at 0)."""
         with self.lock:
             self.pending = {}
             self.answered_ns = {}
             self.instant_ns = 0
+        self.set_at = np.full(self.set_at.size, -math.inf)
+
+    def publishing(self, instant_ns):
+        """The instant instant_ns (ns of simulated time) goes out now: an unstamped answer
+        from here on answers it."""
+        with self.lock:
+            self.instant_ns = instant_ns
 
     def any_unstamped(self, names) -> bool:
         """True when one of `names` answers unstamped (~/forces, or its last answer)."""
@@ -142,25 +153,51 @@ class ForceInputs:
 
     # -- on the clock thread -----------------------------------------------------------------
 
-    def apply(self, simulation, wrench_time):
-        """Apply what came since the last tick; wrench_time[i] = when sphere i's force was
-        last set (simulated s), for the timeout."""
+    def apply(self, simulation):
+        """Apply what came since the last tick, through the core's setters, and restart
+        the wrench clock of each sphere it set."""
         with self.lock:
             pending, self.pending = self.pending, {}
         for key, message in pending.items():
             if key is ALL_SPHERES:
-                self._apply_forces(simulation, wrench_time, message)
+                self._apply_forces(simulation, message)
             else:
-                self._apply_wrench(simulation, wrench_time, key, message)
+                self._apply_wrench(simulation, key, message)
+
+    def set_force(self, simulation, sphere, force):
+        """Push a sphere (N, world axes) as an input message does: InvalidInput if the core
+        refuses it; holds until replaced or until the wrench timeout."""
+        index = simulation.spheres.lookup(sphere)
+        simulation.set_external_force(sphere, force)
+        self.set_at[index] = simulation.time
+
+    def release_expired(self, simulation, timeout_s):
+        """No force from now on on spheres whose last input is older than timeout_s."""
+        if timeout_s > 0.0:
+            expired = simulation.time - self.set_at > timeout_s
+            if expired.any():
+                simulation.release_external_forces(expired)
+                self.set_at[expired] = math.inf
+
+    def first_expiry(self, timeout_s) -> float:
+        """Simulated s at which the next force times out (inf: none will)."""
+        if timeout_s <= 0.0 or not self.set_at.size:
+            return math.inf
+        return float(np.min(self.set_at)) + timeout_s
+
+    def follow_spheres(self, before, after):
+        """After a spawn or remove: the clock of each kept sphere follows it from the names
+        `before` to the names `after`."""
+        set_at = dict(zip(before, self.set_at.tolist()))
+        self.set_at = np.array([set_at.get(name, -math.inf) for name in after])
 
     def _warn(self, text):
         self.node.get_logger().warning(text, throttle_duration_sec=THROTTLE_S)
 
-    def _apply_wrench(self, simulation, wrench_time, name, message):
+    def _apply_wrench(self, simulation, name, message):
         force = (message.force.x, message.force.y, message.force.z)
         try:
-            index = simulation.spheres.lookup(name)
-            simulation.set_external_force(name, force)
+            self.set_force(simulation, name, force)
         except InvalidInput as error:
             self._warn(f'{shortened(name)}/wrench: refused: {error}; keeping the last')
             return
@@ -169,23 +206,20 @@ class ForceInputs:
             self.torque_warned.add(name)
             self.node.get_logger().warning(
                 f'{name}/wrench: torque {torque} ignored: a point mass cannot turn')
-        wrench_time[index] = simulation.time
 
-    def _apply_forces(self, simulation, wrench_time, message):
-        count = simulation.spheres.count
+    def _apply_forces(self, simulation, message):
         try:
-            forces = forces_of(message, count, simulation.spheres.names.__getitem__)
+            simulation.set_external_forces(forces_of(message, simulation.spheres.count))
         except InvalidInput as error:
             self._warn(f'forces: refused: {error}; keeping the last')
             return
-        simulation.spheres.external_force[:] = forces.T
-        wrench_time[:] = simulation.time
+        self.set_at[:] = simulation.time
 
 
-def forces_of(message, count, sphere_name=str) -> np.ndarray:
+def forces_of(message, count) -> np.ndarray:
     """The (count, 3) forces in N of a Float64MultiArray, or InvalidInput: n x 3 values in
-    sphere_names order; a layout, when given, must say the same. sphere_name(i) names
-    row i in a refusal."""
+    sphere_names order; a layout, when given, must say the same. The values are the core's
+    to check (Simulation.set_external_forces)."""
     data = np.asarray(message.data, dtype=float)
     dims = [(d.size, d.stride) for d in message.layout.dim]
     expected = f'{count} x 3 = {3 * count} values (x, y, z per sphere in sphere_names order)'
@@ -196,18 +230,4 @@ def forces_of(message, count, sphere_name=str) -> np.ndarray:
                            f'(or no layout) and data_offset 0, got sizes '
                            f'{[size for size, _ in dims]}, data_offset '
                            f'{message.layout.data_offset}')
-    forces = data.reshape(count, 3)
-    bad = ~(np.isfinite(forces) & (np.abs(forces) <= FORCE_LIMIT_N)).all(axis=1)
-    if bad.any():
-        row = int(np.flatnonzero(bad)[0])
-        check_external_force(f'row {row} ({sphere_name(row)})', forces[row])  # raises
-    return forces
-
-
-def expired_forces(simulation, wrench_time, timeout_s):
-    """Zero the external force of spheres whose last input is older than timeout_s."""
-    if timeout_s > 0.0:
-        expired = simulation.time - wrench_time > timeout_s
-        if expired.any():
-            simulation.spheres.external_force[:, expired] = 0.0
-            wrench_time[expired] = math.inf
+    return data.reshape(count, 3)
