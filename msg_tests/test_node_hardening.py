@@ -4,6 +4,7 @@ import math
 import time
 
 from geometry_msgs.msg import PoseArray, Wrench
+from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import Parameter as ParameterMessage, ParameterValue
 from rcl_interfaces.srv import (DescribeParameters, GetParameters, SetParameters,
                                 SetParametersAtomically)
@@ -195,6 +196,20 @@ def test_slow_publishing_does_not_give_up_simulated_time():
         assert ros.sim.clock.given_up_s < 0.05
 
 
+@pytest.mark.parametrize('real_time_factor', [1e-12, 1e-6])
+def test_at_a_pace_too_slow_to_reach_the_next_instant_late_subscribers_get_the_state(
+        real_time_factor):
+    # The state at t = 0 goes out as the node starts, before anyone subscribed; at
+    # real_time_factor 1e-12 the next instant is 10^10 s away, and a volatile subscriber
+    # (the default QoS) once got nothing at all.
+    with Harness({'real_time_factor': real_time_factor}) as ros:
+        poses = ros.collect(PoseArray, 'poses')
+        odometry = ros.collect(Odometry, 'cork/odom')
+        assert ros.spin_until(lambda: poses and odometry, timeout_s=3.0)
+        assert stamp_seconds(poses[0].header) < 1e-3
+        assert stamp_seconds(odometry[0].header) < 1e-3
+
+
 @pytest.mark.parametrize('before_the_end', ['half a second', 'one step'])
 def test_at_the_last_second_a_stamp_can_carry_the_node_pauses_and_reset_goes_on(
         before_the_end):
@@ -206,7 +221,7 @@ def test_at_the_last_second_a_stamp_can_carry_the_node_pauses_and_reset_goes_on(
         with ros.sim.lock():
             ros.sim.simulation.time = LAST_STAMP_S - (
                 0.5 if before_the_end == 'half a second' else ros.sim.simulation.max_step)
-            ros.sim.next_publish_time = ros.sim.simulation.time
+            ros.sim.clock.next_publish_time = ros.sim.simulation.time
         assert ros.spin_until(lambda: ros.sim.clock.paused)
         assert ros.sim.simulation.time <= LAST_STAMP_S
         assert logs.said('error', 'the last a ROS time stamp can carry')

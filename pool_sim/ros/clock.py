@@ -30,9 +30,10 @@ TICK_PERIOD_RANGE_S = (0.001, 0.05)
 MAX_BACKLOG_WALL_S = 0.1
 # Wall seconds between the status lines in the log.
 STATUS_PERIOD_S = 5.0
-# While paused the state goes out again this often (wall s), for subscribers that ask for
-# volatile durability and joined meanwhile.
-PAUSED_REPUBLISH_S = 1.0
+# A state that has not gone out for this long (wall s: paused, or a real_time_factor so
+# small that the next instant is far off) goes out again, for subscribers that joined
+# meanwhile asking for volatile durability, and to odometry subscribers that are new.
+QUIET_REPUBLISH_S = 1.0
 
 
 class SimulationClock:
@@ -60,7 +61,6 @@ class SimulationClock:
         self.paused_wall_s, self.paused_since = 0.0, None
         self.started_wall = time.monotonic()  # set again by start()
         self.next_status_wall = self.started_wall + STATUS_PERIOD_S
-        self.next_paused_publish = 0.0
         tick_period = (max(node.simulation.max_step, self.publish_period)
                        / self.real_time_factor if self.real_time_factor > 0 else 0.0)
         self.tick_period = min(max(tick_period, TICK_PERIOD_RANGE_S[0]),
@@ -130,9 +130,7 @@ class SimulationClock:
         simulation = self.node.simulation
         if self.paused:
             self.inputs.apply(simulation)
-            if now >= self.next_paused_publish:  # for subscribers that joined meanwhile
-                self.next_paused_publish = now + PAUSED_REPUBLISH_S
-                self.publishing.publish_state()
+            self._republish_if_quiet()
             return False
         # Looked at before the inputs are applied: every answer that made it ready is.
         answered = self.ready()
@@ -165,7 +163,16 @@ class SimulationClock:
         if self.steps_taken > steps_before:
             self.publishing.publish_clock()
         self.diagnostics.report_recovered()
+        self._republish_if_quiet()
         return behind
+
+    def _republish_if_quiet(self):
+        """The present state again, when none went out for QUIET_REPUBLISH_S: while paused,
+        and at a pace so slow that the next instant is far off (real_time_factor 1e-12).
+        Never while lockstep awaits answers to it: lockstep sends its own copies."""
+        quiet = time.monotonic() - self.publishing.last_publish_wall >= QUIET_REPUBLISH_S
+        if quiet and (self.paused or self.lockstep.awaited_ns is None):
+            self.publishing.publish_state(new_listeners=True)
 
     def advance(self) -> bool:
         """Step to the next publish instant and publish it (with /clock), whether paused or
@@ -266,7 +273,6 @@ class SimulationClock:
         now = time.monotonic()
         if paused and not self.paused:
             self.paused_since = now
-            self.next_paused_publish = now + PAUSED_REPUBLISH_S
         elif not paused and self.paused:
             self.paused_wall_s += now - self.paused_since
             self.paused_since = None

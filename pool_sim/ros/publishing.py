@@ -59,6 +59,7 @@ class StatePublishing:
                       if scene['publish_clock'] else None)
         self.listeners = []
         self.publishes = 0  # instants published, across resets
+        self.last_publish_wall = time.monotonic()  # when the state last went out
         # Wall seconds spent filling messages and sending them, for the status line.
         self.time_spent = {'build': 0.0, 'publish': 0.0}
         self.next_listener_check, self.odometry_wanted = 0.0, []
@@ -107,11 +108,10 @@ class StatePublishing:
         if self.clock is None:
             return
         simulated_s = self.node.simulation.time
-        message = ClockMessage(clock=stamp_of(simulated_s))
-        self.clock.publish(message)
-        if self.listeners:
-            self._tell(Published(simulated_s, stamp_nanoseconds(simulated_s), (
-                (self.clock.topic_name, ClockMessage, serialize_message(message)),)))
+        data = serialize_message(ClockMessage(clock=stamp_of(simulated_s)))
+        self.clock.publish(data)  # serialized once, for DDS and the listeners alike
+        self._tell(Published(simulated_s, stamp_nanoseconds(simulated_s),
+                             ((self.clock.topic_name, ClockMessage, data),)))
 
     def publish_state(self, new_listeners=False):
         """The present instant on every state topic (and odometry where listened to).
@@ -151,10 +151,10 @@ class StatePublishing:
         self.time_spent['build'] += built - started
         self.time_spent['publish'] += time.perf_counter() - built
         self.publishes += 1
-        if self.listeners:
-            self._tell(Published(simulation.time, instant_ns, tuple(
-                [(publisher.topic_name, kind, data) for publisher, kind, data in sent]
-                + [(publisher.topic_name, Odometry, data) for publisher, data in odometry])))
+        self.last_publish_wall = time.monotonic()
+        self._tell(Published(simulation.time, instant_ns, tuple(
+            [(publisher.topic_name, kind, data) for publisher, kind, data in sent]
+            + [(publisher.topic_name, Odometry, data) for publisher, data in odometry])))
 
     def _tell(self, published):
         for listener in self.listeners:
