@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from pool_sim.physics import InvalidInput, Scene, Simulation
+from pool_sim.ros.node_keys import NODE_SCENE
 
 
 def snapshot(sim):
@@ -105,8 +106,16 @@ BAD_SCENES = [
 
 @pytest.mark.parametrize('params, message', BAD_SCENES)
 def test_a_bad_scene_fails_naming_the_key_and_what_is_allowed(params, message):
+    # As the node reads a scene: the physics' keys and its own.
     with pytest.raises(InvalidInput, match=message):
-        Scene(params)
+        Scene(params, extension=NODE_SCENE)
+
+
+def test_the_core_knows_nothing_of_the_nodes_keys():
+    with pytest.raises(InvalidInput, match='publish_clock: unknown key'):
+        Scene({'publish_clock': False})
+    assert 'publish_clock' not in Scene.default().global_values()
+    assert Scene.default(NODE_SCENE)['publish_clock'] is False
 
 
 def test_an_empty_effects_list_handed_over_untyped_means_no_effects():

@@ -15,6 +15,7 @@ from lockstep_nodes import (ArrayKeeper, first_difference, LOCKSTEP_PARAMS,
                             record_across_processes, record_in_process)
 from pool_sim.physics import InvalidInput, Scene, stepper
 from pool_sim.ros.depth_keeper import DepthKeeper
+from pool_sim.ros.node_keys import NODE_SCENE
 from pool_sim.testing import PoolSim
 
 KEEPER_SCENE = {'lockstep_inputs': ['ice'], 'wrench_timeout': 0.0, 'real_time_factor': 0.0}
@@ -206,7 +207,7 @@ def test_step_is_refused_while_running_and_steps_one_period_while_paused(pool_si
 def test_bad_lockstep_settings_are_refused_naming_the_key(pool_sim, key, value, words):
     # In a scene (a params file) ...
     with pytest.raises(InvalidInput, match=words):
-        Scene.default().with_values(**{key: value})
+        Scene.default(NODE_SCENE).with_values(**{key: value})
     # ... and live, as `ros2 param set` sends it: refused, nothing changed.
     sim = pool_sim({'lockstep_inputs': ['ice']})
     before = {name: sim.node.get_parameter(name).value
@@ -221,7 +222,7 @@ def test_bad_lockstep_settings_are_refused_naming_the_key(pool_sim, key, value, 
 
 def test_forces_is_no_sphere_name_and_a_listed_sphere_stays(pool_sim):
     with pytest.raises(InvalidInput, match="sphere_names: 'forces' is taken"):
-        Scene.default().with_values(sphere_names=['forces'])
+        Scene.default(NODE_SCENE).with_values(sphere_names=['forces'])
     sim = pool_sim({'lockstep_inputs': ['ice', 'forces']})
     removal = sim.node.set_parameters_atomically([
         Parameter('sphere_names', value=['cork', 'steel'])])

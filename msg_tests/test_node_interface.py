@@ -20,6 +20,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import SetBool, Trigger
 
 from pool_sim.physics import Scene
+from pool_sim.ros.node_keys import NODE_SCENE
 from pool_sim.ros.simulator_node import PoolSimNode
 from ros_harness import Harness, stamp_seconds
 
@@ -284,7 +285,7 @@ def test_loading_the_nodes_own_dump_fails_only_for_read_only_keys_with_rclpys_re
                 assert result.successful, (parameter.name, result.reason)
         params = {p.name: rclpy.parameter.parameter_value_to_python(p.value) for p in dump
                   if not p.name.startswith(('qos_overrides', 'use_sim_time', 'start_type'))}
-        again = Scene(params)
+        again = Scene(params, extension=NODE_SCENE)
         assert again.sphere_names == ros.sim.scene.sphere_names
         assert (again.sphere_array('position') == ros.sim.scene.sphere_array('position')).all()
 

@@ -28,7 +28,7 @@ from rclpy.parameter import Parameter, parameter_value_to_python
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import SetBool, Trigger
 
-from pool_sim.physics.scene import RESERVED_NAMES
+from pool_sim.ros.node_keys import RESERVED_NAMES
 from ros_harness import Harness
 
 SPHERES = ('cork', 'steel', 'ice')

@@ -1,7 +1,7 @@
 """A value sent to the node reaches the core by one path and is checked once, whichever way
 it came: ~/set_mass, ~/set_radius, rclpy's set_parameters (`ros2 param set`),
 set_parameters_atomically, or a spawn. The checks are counted where the core makes them:
-spheres.check_number (one value) and, for a scene's arrays, scene._rows_allowed (many at
+spheres.check_number (one value) and, for a scene's arrays, schema._rows_allowed (many at
 once); rclpy's own descriptor check is rclpy's, not counted. Each value sent is one no
 other sphere has, so its checks are told apart from the others'."""
 from collections import Counter
@@ -11,7 +11,7 @@ import pytest
 from rcl_interfaces.msg import Parameter as ParameterMessage, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters, SetParametersAtomically
 
-from pool_sim.physics import scene as scene_module, spheres as spheres_module
+from pool_sim.physics import schema as schema_module, spheres as spheres_module
 
 SENT = (7.25, 0.0725, 3.125)  # kg, m, kg: no sphere of the default pool has them
 
@@ -20,7 +20,7 @@ SENT = (7.25, 0.0725, 3.125)  # kg, m, kg: no sphere of the default pool has the
 def checks(monkeypatch):
     """Counter: how many times each value of SENT went through a check of the core."""
     counted = Counter()
-    number, rows_allowed = spheres_module.check_number, scene_module._rows_allowed
+    number, rows_allowed = spheres_module.check_number, schema_module._rows_allowed
 
     def counting_number(name, value, *args, **kwargs):
         if isinstance(value, float) and value in SENT:
@@ -33,8 +33,8 @@ def checks(monkeypatch):
         return rows_allowed(spec, rows)
 
     monkeypatch.setattr(spheres_module, 'check_number', counting_number)
-    monkeypatch.setattr(scene_module, 'check_number', counting_number)
-    monkeypatch.setattr(scene_module, '_rows_allowed', counting_rows)
+    monkeypatch.setattr(schema_module, 'check_number', counting_number)
+    monkeypatch.setattr(schema_module, '_rows_allowed', counting_rows)
     return counted
 
 

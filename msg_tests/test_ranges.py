@@ -7,13 +7,16 @@ import numpy as np
 import pytest
 
 from pool_sim.physics import InvalidInput, Scene, Simulation
-from pool_sim.physics.scene import GLOBAL_KEYS, read_params_document, SPHERE_KEYS
+from pool_sim.physics.params_file import read_params_document
+from pool_sim.physics.schema import SPHERE_KEYS
+from pool_sim.ros.node_keys import NODE_SCENE
+from pool_sim.ros.parameters import SCENE_KEYS
 from pool_sim.physics.spheres import FORCE_LIMIT_N, MASS_RANGE_KG, RADIUS_RANGE_M
 
-RANGED_NUMBERS = {name: key for name, key in GLOBAL_KEYS.items() if key.kind == 'number'}
+RANGED_NUMBERS = {name: key for name, key in SCENE_KEYS.items() if key.kind == 'number'}
 RANGED_NUMBERS.update({f'ball.{name}': key for name, key in SPHERE_KEYS.items()
                        if key.kind == 'number'})
-RANGED_VECTORS = {name: key for name, key in GLOBAL_KEYS.items() if key.kind == 'vector'}
+RANGED_VECTORS = {name: key for name, key in SCENE_KEYS.items() if key.kind == 'vector'}
 RANGED_VECTORS.update({f'ball.{name}': key for name, key in SPHERE_KEYS.items()
                        if key.kind == 'vector'})
 HOSTILE_NUMBERS = [math.nan, math.inf, -math.inf, 1e308, -1e308]
@@ -26,7 +29,7 @@ def test_every_number_and_vector_key_has_a_range():
 
 
 def scene_with(name, value):
-    return Scene({'sphere_names': ['ball'], name: value})
+    return Scene({'sphere_names': ['ball'], name: value}, extension=NODE_SCENE)
 
 
 @pytest.mark.parametrize('name', sorted(RANGED_NUMBERS))
@@ -79,12 +82,23 @@ def test_values_at_the_ends_of_a_range_are_accepted():
     ('sphere_names', 'is taken by a parameter'),
 ])
 def test_a_sphere_name_that_is_not_a_free_ros_name_token_is_refused(name, reason):
+    # The node's scene: the physics' keys, the node's and rclpy's names are all taken.
     with pytest.raises(InvalidInput, match=f'^sphere_names: .*{reason}'):
-        Scene({'sphere_names': [name]})
+        Scene({'sphere_names': [name]}, extension=NODE_SCENE)
     # and its refusal is short, whatever the name's length
     with pytest.raises(InvalidInput) as refused:
-        Scene({'sphere_names': [name]})
+        Scene({'sphere_names': [name]}, extension=NODE_SCENE)
     assert len(str(refused.value)) < 400
+
+
+def test_the_core_reserves_its_own_keys_and_the_node_adds_its_own_and_rclpys():
+    for name in ('gravity', 'water', 'spheres', 'sphere_names'):
+        with pytest.raises(InvalidInput, match='is taken by a parameter'):
+            Scene({'sphere_names': [name]})
+    for name in ('use_sim_time', 'lockstep', 'forces', 'publish_rate_hz'):
+        assert Scene({'sphere_names': [name]}).sphere_names == (name,)
+        with pytest.raises(InvalidInput, match='is taken by a parameter'):
+            Scene({'sphere_names': [name]}, extension=NODE_SCENE)
 
 
 def test_valid_tokens_are_accepted():

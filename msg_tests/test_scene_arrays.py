@@ -556,7 +556,7 @@ def test_with_spheres_takes_arrays_over_the_new_names():
     (['a-b'], {}, '^sphere_names: .* is not a valid ROS name token'),
     ('cork', {}, '^sphere_names: expected a list of strings'),
     (['cork'], {'gravity': [0, 0, -1]}, '^gravity: a global key; with_spheres changes the '
-                                        'spheres and the lockstep keys'),
+                                        'spheres'),
     (['cork'], {'sphere_names': ['steel']}, r"^sphere_names: \['steel'\] is not the names"),
     (['cork'], {'steel.mass': 1.0}, '^steel.mass: unknown key'),
     (['cork'], {'cork.mass': -1.0}, r'^cork.mass: must be within \[1e-06, 1e\+09\] kg'),

@@ -5,6 +5,7 @@
 import argparse
 
 from pool_sim.physics import Scene, Simulation
+from pool_sim.ros.node_keys import NODE_SCENE
 
 
 def main(argv=None):
@@ -13,7 +14,9 @@ def main(argv=None):
     parser.add_argument('--seconds', type=float, default=20.0, help='simulated time, s')
     parser.add_argument('--every', type=float, default=1.0, help='table row interval, s')
     args = parser.parse_args(argv)
-    scene = Scene.from_yaml(args.params_file) if args.params_file else Scene.default()
+    # A params file written for the node: its keys are checked, the node's read by none.
+    scene = (Scene.from_yaml(args.params_file, extension=NODE_SCENE) if args.params_file
+             else Scene.default())
     sim = Simulation(scene)
     names = sim.spheres.names
     print('   t [s] ' + ''.join(f'| {n:>8} z [m]  vz [m/s] ' for n in names))

@@ -51,7 +51,7 @@ class PoolSim:
 
     def __init__(self, scene=None, params_file=None, *, lockstep=True, run_clock=False,
                  node_name='pool_sim', executor='events'):
-        from pool_sim.physics.scene import flatten
+        from pool_sim.physics.schema import flatten
         self.params = flatten(dict(scene or {}))
         self.params.setdefault('lockstep', lockstep)
         self.params_file, self.run_clock, self.node_name = params_file, run_clock, node_name

@@ -12,7 +12,7 @@ import numpy as np
 from .collisions import workspace as collision_workspace
 from .effects import heave_added_masses
 from .media import cap_volume_integral, linear_volume_integral
-from .scene import LOCKSTEP_KEYS
+from .schema import GLOBAL_KEYS
 from .spheres import InvalidInput, shown
 from .stability import stable_step_bound
 from .stepper import environment_array, Stepper
@@ -176,8 +176,9 @@ class Simulation:
         area, external force, ...); a new one starts at the scene's initial values with no
         external force; time goes on. reset() then returns to the new scene at time 0.
         """
-        for key, value in scene.global_values().items():
-            if key != 'sphere_names' and key not in LOCKSTEP_KEYS and value != self.scene[key]:
+        for key in GLOBAL_KEYS:  # the physics' own: a runner's keys are its own business
+            value = scene[key]
+            if key != 'sphere_names' and value != self.scene[key]:
                 raise InvalidInput(f'{key}: change_spheres changes the spheres only; the new '
                                    f'scene has {shown(value)}, the running one '
                                    f'{shown(self.scene[key])}')

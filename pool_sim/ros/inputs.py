@@ -26,8 +26,8 @@ from rclpy.event_handler import SubscriptionEventCallbacks
 from std_msgs.msg import Float64MultiArray
 
 from pool_sim.physics import InvalidInput
-from pool_sim.physics.scene import FORCES_INPUT
 from pool_sim.physics.spheres import shortened
+from pool_sim.ros.node_keys import FORCES_INPUT
 from pool_sim.ros.services import THROTTLE_S
 ALL_SPHERES = object()  # the pending key of a ~/forces array
 

@@ -18,7 +18,7 @@ from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 
 from pool_sim.physics import InvalidInput
-from pool_sim.physics.scene import SPHERE_KEYS
+from pool_sim.physics.schema import SPHERE_KEYS
 from pool_sim.physics.spheres import named_few, RADIUS_RANGE_M
 from pool_sim.ros.parameter_plans import plan_request
 from pool_sim.ros.parameters import (ARRAY_PREFIX, as_declared_types, describe, doubles,

@@ -9,7 +9,8 @@ from typing import NamedTuple, Optional
 import numpy as np
 
 from pool_sim.physics import InvalidInput
-from pool_sim.physics.scene import check_some_sphere_names, Scene, SPHERE_KEYS
+from pool_sim.physics.scene import Scene
+from pool_sim.physics.schema import check_some_sphere_names, SPHERE_KEYS
 from pool_sim.physics.spheres import named_few
 from pool_sim.ros.parameters import (ARRAY_PREFIX, array_parameter, is_ros_own,
                                      LIVE_SPHERE_KEYS, LOCKSTEP_KEYS, plain)
@@ -105,7 +106,7 @@ def _plan_spheres(node, values, settings):
     values (reset goes back to them); keys of a kept sphere in the request are live
     changes, as in any other request. The live changes are checked against the spheres
     now and carry the indices they will have after the change."""
-    names = check_some_sphere_names(values['sphere_names'])
+    names = check_some_sphere_names(values['sphere_names'], node.scene.reserved_names)
     index = node.simulation.spheres.index
     given, live = {}, {}
     if node.per_sphere:

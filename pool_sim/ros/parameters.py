@@ -22,12 +22,15 @@ import numpy as np
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, ParameterEvent
 from rclpy.parameter import Parameter
 
-from pool_sim.physics.scene import (check_some_sphere_names, COMPONENTS, GLOBAL_KEYS,
-                                    LOCKSTEP_KEYS, Scene, SPHERE_KEYS)
+from pool_sim.physics.scene import Scene
+from pool_sim.physics.schema import (check_some_sphere_names, COMPONENTS, GLOBAL_KEYS,
+                                     SPHERE_KEYS)
 from pool_sim.physics.spheres import range_words
+from pool_sim.ros.node_keys import (LOCKSTEP_KEYS, NODE_KEYS, NODE_SCENE, RESERVED_NAMES,
+                                    ROS_OWN_PARAMETERS)
 
-# Parameters rclpy itself declares or reads; they are not part of the scene.
-ROS_OWN_PARAMETERS = ('use_sim_time', 'start_type_description_service')
+# Every global key of the node's scene: the physics' and the node's own.
+SCENE_KEYS = {**GLOBAL_KEYS, **NODE_KEYS}
 # What may change while the node runs: these per-sphere keys, sphere_names (spawn and
 # remove, with the new spheres' keys in the same request), and the lockstep settings.
 LIVE_SPHERE_KEYS = ('mass', 'radius', 'lift_area')
@@ -68,7 +71,8 @@ def scene_from_overrides(overrides: dict, default: Scene) -> Scene:
     """
     overrides = {name: value for name, value in overrides.items() if not is_ros_own(name)}
     # An empty YAML list arrives as a parameter that is not set (None): refused as [].
-    names = check_some_sphere_names(overrides.get('sphere_names', default.sphere_names))
+    names = check_some_sphere_names(overrides.get('sphere_names', default.sphere_names),
+                                    RESERVED_NAMES)
     params = dict(default.global_values())
     as_arrays = {name[len(ARRAY_PREFIX):].partition('.')[0] for name in overrides
                  if name.startswith(ARRAY_PREFIX)}
@@ -84,7 +88,7 @@ def scene_from_overrides(overrides: dict, default: Scene) -> Scene:
                 continue  # it follows the radius, which the file may change
             params[dotted] = default[dotted]
     params.update(overrides)
-    return Scene(params)
+    return Scene(params, extension=NODE_SCENE)
 
 
 def describe(name: str, read_only: bool) -> ParameterDescriptor:
@@ -98,7 +102,7 @@ def describe(name: str, read_only: bool) -> ParameterDescriptor:
         description = f'{which}{key.description}; one per sphere, in sphere_names order'
         scope = 'each value '
     else:
-        key = GLOBAL_KEYS.get(name) or SPHERE_KEYS[name.rsplit('.', 1)[1]]
+        key = SCENE_KEYS.get(name) or SPHERE_KEYS[name.rsplit('.', 1)[1]]
         description = key.description
         scope = 'each component ' if key.kind == 'vector' else ''
     if name.endswith('lift_area'):
@@ -112,7 +116,7 @@ def describe(name: str, read_only: bool) -> ParameterDescriptor:
 
 
 def is_read_only(name: str) -> bool:
-    if name in GLOBAL_KEYS:
+    if name in SCENE_KEYS:
         return name not in LIVE_GLOBAL_KEYS
     if name.startswith(ARRAY_PREFIX):
         return False  # spawn requests carry the new spheres' entries; checked by the node
@@ -176,8 +180,8 @@ def plain(value):
 def number_key(name: str):
     """The schema Key of a parameter name in any form ('gravity', 'cork.mass',
     'spheres.mass'), or None: for a name of a sphere not declared yet too."""
-    if name in GLOBAL_KEYS:
-        return GLOBAL_KEYS[name]
+    if name in SCENE_KEYS:
+        return SCENE_KEYS[name]
     if name.startswith(ARRAY_PREFIX):
         found = array_parameter(name)
         return None if found is None else SPHERE_KEYS[found[0]]

@@ -24,7 +24,7 @@ import threading
 from rclpy.node import Node
 
 from pool_sim.physics import InvalidInput, Scene, Simulation, stepper
-from pool_sim.physics.scene import read_params_document
+from pool_sim.physics.params_file import read_params_document
 from pool_sim.physics.spheres import named_few
 from pool_sim.ros.clock import SimulationClock
 from pool_sim.ros.diagnostics import Diagnostics
