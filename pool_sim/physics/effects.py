@@ -5,13 +5,8 @@ called: the step (stepper.py) composes them into one loop over the spheres, in w
 effect the scene does not list is a branch on a compile-time constant, removed before the
 loop is built. What a sphere is to these functions:
 
-- `listed`: the scene's effects as compile-time flags, see effect_flags().
-- `env`: the world, a flat tuple (gx, gy, gz, air_density, wind_x, wind_y, wind_z,
-  water_density, current_x, current_y, current_z, surface_z): m/s^2, kg/m^3, m/s, m.
-- `body`: one sphere's properties, a flat tuple (mass kg, radius m, volume m^3,
-  cross_section m^2, drag_coefficient, lift_coefficient, lift_area m^2, lift normal
-  (3, unit), external force (3, N, world axes), 1/radius 1/m, lift_slope 1/rad,
-  stall_angle rad).
+- `listed`, `env`, `body`: the scene's flags, the world and one sphere, namedtuples read
+  by name (kernels/layout.py: Listed, Env, Body, each field's unit there).
 - positions and velocities are 3-tuples, m and m/s; forces 3-tuples, N.
 
 Forces from each medium are weighted by the fraction of the sphere's volume inside it:
@@ -22,6 +17,7 @@ import math
 import numba
 import numpy as np
 
+from .kernels.layout import body_of, env_of, Listed
 from .media import compiled, submerged_fraction, submerged_fraction_slope, \
     waterline_volume_slope
 from .wave_table import ADDED_MASS, ADDED_MASS_SLOPE, DAMPING_RATE, DRAFTS, MASS_AXIS
@@ -29,10 +25,8 @@ from .wave_table import ADDED_MASS, ADDED_MASS_SLOPE, DAMPING_RATE, DRAFTS, MASS
 EFFECTS = ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass', 'wave_radiation', 'contact',
            'friction', 'collisions')
 DEFAULT_EFFECTS = ('gravity', 'buoyancy', 'drag', 'wave_radiation', 'contact', 'friction')
-# The smooth effects, in the order of effect_flags' tuple (then the submerged-volume model).
-SMOOTH_EFFECTS = ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass', 'wave_radiation')
-# Positions in effect_flags' tuple.
-WAVE_RADIATION, CAP, SCALAR = 5, 6, 7
+# The smooth effects, Listed's first fields (then the submerged-volume model, the loop's).
+SMOOTH_EFFECTS = Listed._fields[:6]
 HALF_PI = 0.5 * math.pi
 # The wave table's grid: drafts s = d/r and t = mu/(1 + mu), both evenly spaced.
 _DRAFT_CELLS, _MASS_CELLS = DRAFTS.size - 1, MASS_AXIS.size - 1
@@ -41,18 +35,16 @@ assert DRAFTS[0] == 0.0 and MASS_AXIS[0] == 0.0 and MASS_AXIS[-1] == 1.0
 
 
 def effect_flags(effects, submerged_volume='cap', scalar=True):
-    """The compile-time tuple the compiled functions branch on: (gravity, buoyancy, drag,
-    lift, added_mass, wave_radiation, cap, scalar) as bools; cap is False for the linear
-    submerged volume;
-    scalar (the plain loop, not the vectorised one) lets a function skip work a sphere does
-    not need by a branch, which a vectorised loop would pay for on both sides."""
+    """The compile-time flags the compiled functions branch on, a Listed (see
+    kernels/layout.py): each smooth effect listed or not, cap for submerged_volume 'cap',
+    and scalar."""
     unknown = set(effects) - set(EFFECTS)
     if unknown:
         raise ValueError(f'effects: unknown {sorted(unknown)}; allowed: {list(EFFECTS)}')
     if submerged_volume not in ('cap', 'linear'):
         raise ValueError(f"submerged_volume: 'cap' or 'linear', got {submerged_volume!r}")
-    return tuple(name in effects for name in SMOOTH_EFFECTS) + (submerged_volume == 'cap',
-                                                                 bool(scalar))
+    return Listed(*(name in effects for name in SMOOTH_EFFECTS), submerged_volume == 'cap',
+                  bool(scalar))
 
 
 _LISTED_SCALAR = effect_flags(['wave_radiation'])
@@ -62,30 +54,29 @@ _LISTED_SCALAR = effect_flags(['wave_radiation'])
 def water_fraction(listed, env, body, z):
     """Fraction of the sphere under water; 0 without computing it when no listed effect
     needs it (gravity alone, or nothing)."""
-    gravity, buoyancy, drag, lift, added, waves, cap, scalar = listed
-    if not (buoyancy or drag or lift or added):
+    if not (listed.buoyancy or listed.drag or listed.lift or listed.added_mass):
         return 0.0
-    return submerged_fraction(cap, z, body[1], body[13], env[11])
+    return submerged_fraction(listed.cap, z, body.radius, body.inverse_radius, env.surface_z)
 
 
 @compiled
 def gravity_force(env, body):
     """m*g."""
-    mass = body[0]
-    return env[0] * mass, env[1] * mass, env[2] * mass
+    mass = body.mass
+    return env.gravity_x * mass, env.gravity_y * mass, env.gravity_z * mass
 
 
 @compiled
 def displaced_mass(env, body, fraction):
     """rho*V_sub summed over both media, kg."""
-    return body[2] * (env[3] + (env[7] - env[3]) * fraction)
+    return body.volume * (env.air_density + (env.water_density - env.air_density) * fraction)
 
 
 @compiled
 def buoyancy_force(env, body, fraction):
     """-rho*V_sub*g from each medium: always against gravity, whatever its direction."""
     displaced = displaced_mass(env, body, fraction)
-    return -env[0] * displaced, -env[1] * displaced, -env[2] * displaced
+    return -env.gravity_x * displaced, -env.gravity_y * displaced, -env.gravity_z * displaced
 
 
 @compiled
@@ -98,16 +89,16 @@ def added_mass(env, body, fraction):
 def drag_factors(env, body, fraction):
     """(factor_air, factor_water) = 1/2*rho*C_d*A*fraction per medium, kg/m: the drag of
     a medium is -factor * |v_rel| * v_rel."""
-    shape = 0.5 * body[4] * body[3]
-    return shape * env[3] * (1.0 - fraction), shape * env[7] * fraction
+    shape = 0.5 * body.drag_coefficient * body.cross_section
+    return shape * env.air_density * (1.0 - fraction), shape * env.water_density * fraction
 
 
 @compiled
 def drag_force(env, factor_air, factor_water, velocity):
     """-factor*|v - u|*(v - u) per medium, u = wind or current."""
     vx, vy, vz = velocity
-    ax, ay, az = vx - env[4], vy - env[5], vz - env[6]
-    wx, wy, wz = vx - env[8], vy - env[9], vz - env[10]
+    ax, ay, az = vx - env.wind_x, vy - env.wind_y, vz - env.wind_z
+    wx, wy, wz = vx - env.current_x, vy - env.current_y, vz - env.current_z
     gain_air = factor_air * math.sqrt(ax * ax + ay * ay + az * az)
     gain_water = factor_water * math.sqrt(wx * wx + wy * wy + wz * wz)
     return (-(gain_air * ax + gain_water * wx), -(gain_air * ay + gain_water * wy),
@@ -119,7 +110,7 @@ def lift_coefficient(body, attack):
     """|C_l| at the angle of attack `attack` (rad, 0 = edge-on .. pi/2 = face-on): the
     lift-curve slope lift_slope * attack, capped at |lift_coefficient| (the most the surface
     gives), up to stall_angle; past the stall it falls linearly to zero face-on."""
-    slope, stall, peak = body[14], body[15], abs(body[5])
+    slope, stall, peak = body.lift_slope, body.stall_angle, abs(body.lift_coefficient)
     if attack <= stall:
         rising = slope * attack
         return rising if rising < peak else peak
@@ -137,15 +128,16 @@ def medium_lift(density, fraction, body, rx, ry, rz):
     face-on (no lift: past the stall). The flow pushes the surface away from the side it
     meets, so the lift points along the part of n across w, signed against n.w (and by the
     sign of lift_coefficient): it changes smoothly through both ends, never flips."""
-    nx, ny, nz = body[7], body[8], body[9]
+    nx, ny, nz = body.lift_normal_x, body.lift_normal_y, body.lift_normal_z
     speed_sq = rx * rx + ry * ry + rz * rz
     along = nx * rx + ny * ry + nz * rz
     # |w|^2 * (n - (n.w^)w^): perpendicular to w, in the plane of n and w; |w|^2 cos(alpha) long.
     dx, dy, dz = nx * speed_sq - along * rx, ny * speed_sq - along * ry, nz * speed_sq - along * rz
     length = math.sqrt(dx * dx + dy * dy + dz * dz)
     attack = math.atan2(abs(along) * math.sqrt(speed_sq), length)
-    magnitude = 0.5 * density * fraction * body[6] * speed_sq * lift_coefficient(body, attack)
-    signed = -magnitude if (along > 0.0) == (body[5] > 0.0) else magnitude
+    magnitude = (0.5 * density * fraction * body.lift_area * speed_sq
+                 * lift_coefficient(body, attack))
+    signed = -magnitude if (along > 0.0) == (body.lift_coefficient > 0.0) else magnitude
     scale = signed / length if length > 0.0 else 0.0
     return dx * scale, dy * scale, dz * scale
 
@@ -158,34 +150,35 @@ def lift_force(listed, env, body, fraction, velocity):
     vx, vy, vz = velocity
     ax = ay = az = wx = wy = wz = 0.0
     # The constant first: in the vectorised build the condition is then no branch at all.
-    if not listed[SCALAR] or fraction < 1.0:
-        ax, ay, az = medium_lift(env[3], 1.0 - fraction, body, vx - env[4], vy - env[5],
-                                 vz - env[6])
-    if not listed[SCALAR] or fraction > 0.0:
-        wx, wy, wz = medium_lift(env[7], fraction, body, vx - env[8], vy - env[9], vz - env[10])
+    if not listed.scalar or fraction < 1.0:
+        ax, ay, az = medium_lift(env.air_density, 1.0 - fraction, body, vx - env.wind_x,
+                                 vy - env.wind_y, vz - env.wind_z)
+    if not listed.scalar or fraction > 0.0:
+        wx, wy, wz = medium_lift(env.water_density, fraction, body, vx - env.current_x,
+                                 vy - env.current_y, vz - env.current_z)
     return ax + wx, ay + wy, az + wz
 
 
 @compiled
 def inertia(listed, env, body, fraction):
     """kg that resists acceleration: the mass, plus added mass when listed."""
-    if listed[4]:
-        return body[0] + added_mass(env, body, fraction)
-    return body[0]
+    if listed.added_mass:
+        return body.mass + added_mass(env, body, fraction)
+    return body.mass
 
 
 @compiled
 def explicit_force(listed, env, body, velocity, fraction):
     """Every listed force but drag, plus the external force, N: what the default integrator
     takes explicitly."""
-    fx, fy, fz = body[10], body[11], body[12]
-    if listed[0]:
+    fx, fy, fz = body.force_x, body.force_y, body.force_z
+    if listed.gravity:
         gx, gy, gz = gravity_force(env, body)
         fx, fy, fz = fx + gx, fy + gy, fz + gz
-    if listed[1]:
+    if listed.buoyancy:
         bx, by, bz = buoyancy_force(env, body, fraction)
         fx, fy, fz = fx + bx, fy + by, fz + bz
-    if listed[3]:
+    if listed.lift:
         lx, ly, lz = lift_force(listed, env, body, fraction, velocity)
         fx, fy, fz = fx + lx, fy + ly, fz + lz
     return fx, fy, fz
@@ -206,10 +199,10 @@ def heave_radiation(listed, env, body, z):
     thousands of times its mass). So 1/2 (m + A33) z'^2 + potential, the water carried
     counted, never grows.
     """
-    radius, inverse_radius, density = body[1], body[13], env[7]
-    draft = 1.0 + (env[11] - z) * inverse_radius  # s = d / r: 0 touching, 2 wholly under
+    radius, inverse_radius, density = body.radius, body.inverse_radius, env.water_density
+    draft = 1.0 + (env.surface_z - z) * inverse_radius  # s = d / r: 0 touching, 2 wholly under
     inside = (draft > 0.0) & (draft < 2.0)  # false for NaN too
-    if listed[SCALAR] and not inside:
+    if listed.scalar and not inside:
         return 0.0, 0.0, 0.0
     # In (s, t = mu / (1 + mu)), mu = m / (rho r^3): the added mass a cubic Hermite spline
     # in s (its slope continuous inside the band, so the force of the water taken on jumps
@@ -220,7 +213,7 @@ def heave_radiation(listed, env, body, z):
     row = row if row > 0.0 else 0.0
     row = row if row < _DRAFT_CELLS else float(_DRAFT_CELLS)
     i = min(int(row), _DRAFT_CELLS - 1)
-    column = body[0] / (body[0] + scale) * _MASS_CELLS
+    column = body.mass / (body.mass + scale) * _MASS_CELLS
     column = column if column > 0.0 else 0.0
     column = column if column < _MASS_CELLS else float(_MASS_CELLS)
     j = min(int(column), _MASS_CELLS - 1)
@@ -247,26 +240,20 @@ def heave_radiation(listed, env, body, z):
     added = on * scale * value
     # d/dz = d/du * du/ds * ds/dz, ds/dz = -1/r
     added_slope = -on * scale * per_cell * _CELLS_PER_DRAFT * inverse_radius
-    damping = on * scale * math.sqrt(abs(env[2]) * inverse_radius) * (
+    damping = on * scale * math.sqrt(abs(env.gravity_z) * inverse_radius) * (
         rate_low + u * (rate_high - rate_low))
     return added, added_slope, damping
 
 
-@compiled
-def heave_body(mass, radius, volume):
-    """A `body` with only what heave_radiation, inertia and water_fraction read (mass kg,
-    radius m, volume m^3, 1/radius), the rest zero."""
-    return (mass, radius, volume, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-            1.0 / radius, 0.0, 0.0)
-
-
 @numba.njit(error_model='numpy')  # not cached: numba's cache would miss a new wave_table
-def heave_added_masses(env, mass, radius, z):
-    """(n,) kg: heave_radiation's added mass of each sphere (mass kg, radius m, centre
-    height z m, all (n,)), for the energy of the water the spheres carry."""
-    added = np.zeros(mass.shape[0])
-    for i in range(mass.shape[0]):
-        body = heave_body(mass[i], radius[i], 0.0)
+def heave_added_masses(environment, properties, z):
+    """(n,) kg: heave_radiation's added mass of each sphere at centre height z (n,) m, for
+    the energy of the water the spheres carry. environment: (12,), in Env's order;
+    properties: the spheres' arrays (kernels/layout.py's properties_of)."""
+    env = env_of(environment)
+    added = np.zeros(z.shape[0])
+    for i in range(z.shape[0]):
+        body = body_of(properties, i)
         added[i] = heave_radiation(_LISTED_SCALAR, env, body, z[i])[0]
     return added
 
@@ -286,16 +273,16 @@ def acceleration(listed, env, body, position, velocity):
     integrators step."""
     fraction = water_fraction(listed, env, body, position[2])
     fx, fy, fz = explicit_force(listed, env, body, velocity, fraction)
-    if listed[2]:
+    if listed.drag:
         factor_air, factor_water = drag_factors(env, body, fraction)
         dx, dy, dz = drag_force(env, factor_air, factor_water, velocity)
         fx, fy, fz = fx + dx, fy + dy, fz + dz
     resisting = inertia(listed, env, body, fraction)
-    if listed[WAVE_RADIATION]:
+    if listed.wave_radiation:
         added, added_slope, damping = heave_radiation(listed, env, body, position[2])
         vz = velocity[2]
         taking_on = added_slope * vz  # dA33/dt, kg/s
-        fz -= (taking_on if taking_on > 0.0 else 0.0) * vz + damping * (vz - env[10])
+        fz -= (taking_on if taking_on > 0.0 else 0.0) * vz + damping * (vz - env.current_z)
         return fx / resisting, fy / resisting, fz / (resisting + added)
     return fx / resisting, fy / resisting, fz / resisting
 
@@ -310,8 +297,9 @@ def buoyancy_stiffness(cap, env, body, z, predicted_z):
     fully under (or above) the water that would cross the band would otherwise feel no
     spring at all.
     """
-    radius, volume, inverse_radius, surface_z = body[1], body[2], body[13], env[11]
-    spring_per_volume_slope = -env[2] * (env[7] - env[3])
+    radius, volume, inverse_radius = body.radius, body.volume, body.inverse_radius
+    surface_z = env.surface_z
+    spring_per_volume_slope = -env.gravity_z * (env.water_density - env.air_density)
     predicted_z = min(max(predicted_z, surface_z - radius), surface_z + radius)
     at_start = spring_per_volume_slope * waterline_volume_slope(cap, z, radius, volume,
                                                                 surface_z)

@@ -8,8 +8,8 @@ resolved afterwards, outside them. The explicit ones see the forces only through
 """
 import math
 
-from .effects import acceleration, buoyancy_stiffness, CAP, drag_factors, explicit_force, \
-    heave_radiation, inertia, water_fraction, water_taken_on, WAVE_RADIATION
+from .effects import acceleration, buoyancy_stiffness, drag_factors, explicit_force, \
+    heave_radiation, inertia, water_fraction, water_taken_on
 from .media import compiled
 
 
@@ -104,7 +104,7 @@ def linearly_implicit_euler(listed, env, body, position, velocity, dt):
     m = inertia(listed, env, body, fraction)
     fx, fy, fz = explicit_force(listed, env, body, velocity, fraction)
     m_z, z_gain, added = m, 0.0, 0.0  # vertical inertia; what z's divisor has beyond x's
-    if listed[WAVE_RADIATION]:
+    if listed.wave_radiation:
         added, added_slope, damping = heave_radiation(listed, env, body, z)
         # Water the sphere will have left by the step's end (as predicted) is dropped first,
         # keeping v_z: carried through the step, its momentum would push the sphere on.
@@ -112,12 +112,13 @@ def linearly_implicit_euler(listed, env, body, position, velocity, dt):
         added = ahead if ahead < added else added
         m_z += added
         z_gain = dt * damping
-        fz += damping * env[10]
+        fz += damping * env.current_z
     px, py, pz = m * vx + dt * fx, m * vy + dt * fy, m_z * vz + dt * fz
     horizontal = m  # the solve's divisor for x and y; z's gains the spring's part too
-    if listed[2]:
+    if listed.drag:
         factor_air, factor_water = drag_factors(env, body, fraction)
-        wx, wy, wz, cx, cy, cz = env[4], env[5], env[6], env[8], env[9], env[10]
+        wx, wy, wz = env.wind_x, env.wind_y, env.wind_z
+        cx, cy, cz = env.current_x, env.current_y, env.current_z
         total = factor_air + factor_water
         inverse_total = 1.0 / (total if total > 0.0 else 1.0)
         mx = (factor_air * wx + factor_water * cx) * inverse_total
@@ -137,17 +138,17 @@ def linearly_implicit_euler(listed, env, body, position, velocity, dt):
     vertical = horizontal + (m_z - m) + z_gain
     weight = 0.5
     inverse_horizontal = 1.0 / horizontal
-    if listed[1]:
-        predicted_z = z + 0.5 * dt * (vz + (pz / vertical if listed[WAVE_RADIATION]
+    if listed.buoyancy:
+        predicted_z = z + 0.5 * dt * (vz + (pz / vertical if listed.wave_radiation
                                             else pz * inverse_horizontal))
-        spring = dt * dt * buoyancy_stiffness(listed[CAP], env, body, z, predicted_z)
+        spring = dt * dt * buoyancy_stiffness(listed.cap, env, body, z, predicted_z)
         h_squared = spring / m_z
         weight = 0.5 + 0.5 * h_squared / (4.0 + h_squared)
         pz -= weight * (1.0 - weight) * spring * vz
         vertical += weight * weight * spring
     nvx, nvy, nvz = px * inverse_horizontal, py * inverse_horizontal, pz / vertical
     nz = z + 0.5 * dt * (vz + nvz) + (weight - 0.5) * dt * (nvz - vz)
-    if listed[WAVE_RADIATION]:
+    if listed.wave_radiation:
         nvz = water_taken_on(listed, env, body, m_z, added, nz, nvz)
     return x + 0.5 * dt * (vx + nvx), y + 0.5 * dt * (vy + nvy), nz, nvx, nvy, nvz
 

@@ -34,10 +34,11 @@ import numpy as np
 
 from .collisions import resolve_collisions
 from .contact import resolve_contacts
-from .effects import effect_flags, heave_body, heave_radiation, inertia, water_fraction, \
-    water_taken_on, WAVE_RADIATION
+from .effects import effect_flags, heave_radiation, inertia, water_fraction, water_taken_on
 from .integrators import explicit_euler, INTEGRATORS, linearly_implicit_euler, rk4, \
     semi_implicit_euler, velocity_verlet
+from .kernels.layout import Body, body_of, Env, env_of, properties_of
+from .media import compiled
 
 INTEGRATOR_CODES = {name: code for code, name in enumerate(INTEGRATORS)}
 # The codes run_steps dispatches on, by name (its globals: constants when it compiles).
@@ -76,6 +77,46 @@ def parallel_from_spheres():
                                      PARALLEL_FROM_SPHERES['workqueue'])
 
 
+@compiled
+def _faces_and_guard(listed, has_contact, has_friction, env, faces, contact_parameters,
+                     properties, old_position, old_velocity, new_position, new_velocity,
+                     flagged, marked, failed, dt):
+    """The second pass (see the module's docstring) over the spheres flagged (n,) marks
+    (marked of them: none, no pass): contacts with the pool's faces (with has_contact), then
+    the step guard. Returns how many spheres the guard put back (flagged in failed (n,))."""
+    radius = properties[1]
+    put_back = 0
+    for i in range(radius.shape[0] if marked else 0):
+        if flagged[i] == 0:
+            continue
+        state = (new_position[0, i], new_position[1, i], new_position[2, i],
+                 new_velocity[0, i], new_velocity[1, i], new_velocity[2, i])
+        overflow = not (state[0] * 0.0 + state[1] * 0.0 + state[2] * 0.0
+                        + state[3] * 0.0 + state[4] * 0.0 + state[5] * 0.0) == 0.0
+        if has_contact and not overflow:
+            old = (old_position[0, i], old_position[1, i], old_position[2, i],
+                   old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
+            s, overflow = resolve_contacts(faces, contact_parameters, has_friction,
+                                           radius[i], old, state, dt)
+            if listed.wave_radiation and not overflow:
+                # Moved by the contact to where it may carry more water.
+                body = body_of(properties, i)
+                added = heave_radiation(listed, env, body, state[2])[0]
+                inertia_z = inertia(listed, env, body, water_fraction(
+                    listed, env, body, state[2])) + added
+                s = (s[0], s[1], s[2], s[3], s[4],
+                     water_taken_on(listed, env, body, inertia_z, added, s[2], s[5]))
+            new_position[0, i], new_position[1, i], new_position[2, i] = s[0], s[1], s[2]
+            new_velocity[0, i], new_velocity[1, i], new_velocity[2, i] = s[3], s[4], s[5]
+        if overflow:
+            for axis in range(3):
+                new_position[axis, i] = old_position[axis, i]
+                new_velocity[axis, i] = 0.0
+            failed[i] = 1
+            put_back += 1
+    return put_back
+
+
 def _compose(integrator_code, listed, has_contact, has_friction, has_collisions, parallel,
              source_digest):
     """The compiled step loop of one configuration (see the module's docstring).
@@ -98,19 +139,17 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
         flagged (n,) uint8, on or past a face or non-finite. The result ends in position
         and velocity. collision_reals, collision_wholes: the collision pass's scratch
         (collisions.workspace; empty without collisions)."""
-        gx, gy, gz = environment[0], environment[1], environment[2]
-        air_density, wind_x, wind_y, wind_z = (environment[3], environment[4],
-                                               environment[5], environment[6])
-        water_density, current_x, current_y, current_z = (environment[7], environment[8],
-                                                          environment[9], environment[10])
-        surface_z = environment[11]
+        world = env_of(environment)  # the parallel loop makes its own (see there)
+        properties = (mass, radius, volume, cross_section, drag_coefficient, lift_coefficient,
+                      lift_area, lift_normal, external_force, lift_slope, stall_angle)
         faces = (pool[0], pool[1], pool[2], pool[3], pool[4], pool[5])
         low_x, low_y, low_z, high_x, high_y, high_z = faces
         contact_parameters = (contact[0], contact[1], contact[2], contact[3])
+        gx, gy, gz = world.gravity_x, world.gravity_y, world.gravity_z
         # A rebound slower than gravity adds in one step is resting contact.
-        resting_speed = math.sqrt(gx * gx + gy * gy + gz * gz) * dt if listed[0] else 0.0
-        floor_supports = listed[0] and gz < 0.0  # piles rest on the floor (collisions.py)
-        gravity_step = (gx * dt, gy * dt, gz * dt) if listed[0] else (0.0, 0.0, 0.0)
+        resting_speed = math.sqrt(gx * gx + gy * gy + gz * gz) * dt if listed.gravity else 0.0
+        floor_supports = listed.gravity and gz < 0.0  # piles rest on the floor (collisions.py)
+        gravity_step = (gx * dt, gy * dt, gz * dt) if listed.gravity else (0.0, 0.0, 0.0)
         count = position.shape[1]
         put_back = 0
         for step in range(steps):
@@ -122,13 +161,9 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                 new_position, new_velocity = position, velocity
             marked = 0
             for i in each_sphere(count):
-                env = (gx, gy, gz, air_density, wind_x, wind_y, wind_z, water_density,
-                       current_x, current_y, current_z, surface_z)
-                body = (mass[i], radius[i], volume[i], cross_section[i], drag_coefficient[i],
-                        lift_coefficient[i], lift_area[i], lift_normal[0, i],
-                        lift_normal[1, i], lift_normal[2, i], external_force[0, i],
-                        external_force[1, i], external_force[2, i], 1.0 / radius[i],
-                        lift_slope[i], stall_angle[i])
+                # Made here, not captured: numba's parallel loop cannot take a namedtuple in.
+                env = env_of(environment)
+                body = body_of(properties, i)
                 start = (old_position[0, i], old_position[1, i], old_position[2, i])
                 start_velocity = (old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
                 if integrator_code == _EXPLICIT_EULER:
@@ -157,36 +192,10 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                 mark = 0 if finite & inside else 1
                 flagged[i] = mark
                 marked += mark
-            for i in range(count if marked else 0):
-                if flagged[i] == 0:
-                    continue
-                state = (new_position[0, i], new_position[1, i], new_position[2, i],
-                         new_velocity[0, i], new_velocity[1, i], new_velocity[2, i])
-                overflow = not (state[0] * 0.0 + state[1] * 0.0 + state[2] * 0.0
-                                + state[3] * 0.0 + state[4] * 0.0 + state[5] * 0.0) == 0.0
-                if has_contact and not overflow:
-                    old = (old_position[0, i], old_position[1, i], old_position[2, i],
-                           old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
-                    s, overflow = resolve_contacts(faces, contact_parameters, has_friction,
-                                                   radius[i], old, state, dt)
-                    if listed[WAVE_RADIATION] and not overflow:
-                        # Moved by the contact to where it may carry more water.
-                        env = (gx, gy, gz, air_density, wind_x, wind_y, wind_z, water_density,
-                               current_x, current_y, current_z, surface_z)
-                        body = heave_body(mass[i], radius[i], volume[i])
-                        added = heave_radiation(listed, env, body, state[2])[0]
-                        inertia_z = inertia(listed, env, body, water_fraction(
-                            listed, env, body, state[2])) + added
-                        s = (s[0], s[1], s[2], s[3], s[4],
-                             water_taken_on(listed, env, body, inertia_z, added, s[2], s[5]))
-                    new_position[0, i], new_position[1, i], new_position[2, i] = s[0], s[1], s[2]
-                    new_velocity[0, i], new_velocity[1, i], new_velocity[2, i] = s[3], s[4], s[5]
-                if overflow:
-                    for axis in range(3):
-                        new_position[axis, i] = old_position[axis, i]
-                        new_velocity[axis, i] = 0.0
-                    failed[i] = 1
-                    put_back += 1
+            put_back += _faces_and_guard(
+                listed, has_contact, has_friction, world, faces, contact_parameters, properties,
+                old_position, old_velocity, new_position, new_velocity, flagged, marked,
+                failed, dt)
             if has_collisions:
                 put_back += resolve_collisions(
                     old_position, old_velocity, new_position, new_velocity, mass, radius,
@@ -264,22 +273,18 @@ class Stepper:
 
 
 def environment_array(env):
-    """The world as run_steps takes it: (12,) float64, in effects.py's `env` order."""
+    """The world as run_steps takes it: (12,) float64, in Env's order (kernels/layout.py)."""
     return np.array([*env.gravity, env.air.density, *env.air.flow_velocity,
                      env.water.density, *env.water.flow_velocity, env.surface_z], dtype=float)
 
 
 def environment_tuple(env):
-    """The world as the compiled per-sphere functions take it (effects.py's `env`)."""
-    return tuple(environment_array(env).tolist())
+    """The world as the compiled per-sphere functions take it, an Env."""
+    return Env(*environment_array(env).tolist())
 
 
 def body_tuple(spheres, index):
-    """One sphere as the compiled per-sphere functions take it (effects.py's `body`)."""
-    i = index
-    return (float(spheres.mass[i]), float(spheres.radius[i]), float(spheres.volume[i]),
-            float(spheres.cross_section[i]), float(spheres.drag_coefficient[i]),
-            float(spheres.lift_coefficient[i]), float(spheres.lift_area[i]),
-            *spheres.lift_normal[:, i].tolist(), *spheres.external_force[:, i].tolist(),
-            1.0 / float(spheres.radius[i]), float(spheres.lift_slope[i]),
-            float(spheres.stall_angle[i]))
+    """Sphere `index` of spheres (a Spheres) as the compiled per-sphere functions take it,
+    a Body, packed by the loop's own body_of."""
+    pack = getattr(body_of, 'py_func', body_of)  # numba's, or plain under NUMBA_DISABLE_JIT
+    return Body(*(float(field) for field in pack(properties_of(spheres), index)))
