@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from .contacts import workspace as collision_workspace
-from .effects import heave_added_masses
+from .kernels.effects import heave_added_masses
 from .kernels.layout import properties_of
 from .media import cap_volume_integral, linear_volume_integral
 from .scene import LOCKSTEP_KEYS

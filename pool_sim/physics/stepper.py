@@ -34,13 +34,15 @@ import numba
 import numpy as np
 
 from .contacts import DEFAULT_SOLVER, SOLVERS
-from .effects import effect_flags, heave_radiation, inertia, water_fraction, water_taken_on
-from .integrators import explicit_euler, INTEGRATORS, linearly_implicit_euler, rk4, \
-    semi_implicit_euler, velocity_verlet
+from .effects import effect_flags
+from .integrators import INTEGRATORS
+from .kernels import compiled
+from .kernels.effects import heave_radiation, inertia, water_fraction, water_taken_on
 from .kernels.faces import resolve_contacts
+from .kernels.integrators import explicit_euler, linearly_implicit_euler, rk4, \
+    semi_implicit_euler, velocity_verlet
 from .kernels.layout import Body, body_of, Env, env_of, properties_of
 from .kernels.step_guard import finite, put_back as put_back_sphere
-from .media import compiled
 
 INTEGRATOR_CODES = {name: code for code, name in enumerate(INTEGRATORS)}
 # The codes run_steps dispatches on, by name (its globals: constants when it compiles).
@@ -51,8 +53,7 @@ _VELOCITY_VERLET, _RK4 = INTEGRATOR_CODES['velocity_verlet'], INTEGRATOR_CODES['
 _LINEARLY_IMPLICIT_EULER = INTEGRATOR_CODES['linearly_implicit_euler']
 # Every file the compiled loop is made of, found by pattern so that no new one is missed:
 # an edit to any of them compiles the loop afresh.
-_SOURCE_PATTERNS = ('stepper.py', 'effects.py', 'integrators.py', 'media.py', 'wave_table.py',
-                    'kernels/**/*.py', 'contacts/**/*.py')
+_SOURCE_PATTERNS = ('stepper.py', 'kernels/**/*.py', 'contacts/**/*.py')
 _SOURCES = sorted({path for pattern in _SOURCE_PATTERNS
                    for path in pathlib.Path(__file__).parent.glob(pattern)})
 SOURCE_DIGEST = hashlib.sha256(b''.join(path.read_bytes() for path in _SOURCES)).hexdigest()[:16]

@@ -33,7 +33,7 @@ _MAX_LEVEL = 40
 
 Contacts = namedtuple('Contacts', ('pairs', 'normal', 'excess', 'added', 'closing', 'order',
                                    'state'))
-Contacts.__doc__ = """This step's contacts, m of them among n spheres, from _find_contacts.
+Contacts.__doc__ = """This step's contacts, m of them among n spheres, from detect_contacts.
 
 pairs: (2, m) int64, each contact's two rows of `state`.
 normal: (3, m), unit, from the second sphere toward the first, at the time of impact (at
@@ -75,7 +75,7 @@ def contact_capacity(count):
 
 
 @numba.njit(error_model='numpy', inline='always')
-def _take(buffer, used, size):
+def take(buffer, used, size):
     """(size items of buffer from used on, uninitialised; where the next take starts), or a
     new array when buffer has no room left (see workspace)."""
     if used + size <= buffer.size:
@@ -91,10 +91,10 @@ def _cell_of(coordinate, origin, size, cells):
 
 @numba.njit(error_model='numpy')
 def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
-    """_find_contacts with arrays of its own (for tests and diagnostics): its first five
+    """detect_contacts with arrays of its own (for tests and diagnostics): its first five
     results, the pairs as sphere indices (not rows of its state)."""
     none = np.empty(0), np.empty(0, dtype=np.int64)
-    rows, normals, excess, added, closing, order, _, _, _ = _find_contacts(
+    rows, normals, excess, added, closing, order, _, _, _ = detect_contacts(
         old_position, old_velocity, position, velocity, radius, dt, none[0], none[1])
     pairs = np.empty_like(rows)
     for c in range(rows.shape[1]):
@@ -103,10 +103,10 @@ def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
 
 @numba.njit(error_model='numpy')
 def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
-    """_find_contacts with arrays of its own (for tests and diagnostics): (pairs (2, m) as
+    """detect_contacts with arrays of its own (for tests and diagnostics): (pairs (2, m) as
     sphere indices, not rows of its state; normal, excess, added, closing)."""
     none = np.empty(0), np.empty(0, dtype=np.int64)
-    contacts, _, _ = _find_contacts(old_position, old_velocity, position, velocity, radius,
+    contacts, _, _ = detect_contacts(old_position, old_velocity, position, velocity, radius,
                                     dt, none[0], none[1])
     rows, order = contacts.pairs, contacts.order
     pairs = np.empty_like(rows)
@@ -116,7 +116,7 @@ def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
 
 
 @numba.njit(error_model='numpy')
-def _find_contacts(old_position, old_velocity, position, velocity, radius, dt, reals,
+def detect_contacts(old_position, old_velocity, position, velocity, radius, dt, reals,
                    wholes):
     """(Contacts, used reals, used wholes): the pairs in contact this step, their arrays
     taken from reals and wholes (see workspace), and how much of each they used.
@@ -141,7 +141,7 @@ def _find_contacts(old_position, old_velocity, position, velocity, radius, dt, r
     # Candidates first (bounding spheres that meet), in a loop of their own: the narrow
     # phase inside the cell loops ran six times slower than on its own.
     capacity = contact_capacity(count)
-    candidates, used_whole = _take(wholes, used_whole, 2 * capacity)
+    candidates, used_whole = take(wholes, used_whole, 2 * capacity)
     candidates = candidates.reshape((2, capacity))
     total = _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_bound,
                              largest, low, size, candidates)
@@ -150,7 +150,7 @@ def _find_contacts(old_position, old_velocity, position, velocity, radius, dt, r
         _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_bound,
                          largest, low, size, candidates)
     # Every candidate is a contact: touching within the step, or speculative (_narrow_phase).
-    facts, used_real = _take(reals, used_real, 6 * total)
+    facts, used_real = take(reals, used_real, 6 * total)
     facts = facts.reshape((6, total))  # normal (3), excess, added, closing
     for c in range(total):
         normal, excess, added, closing = _narrow_phase(state, candidates[0, c],
@@ -164,11 +164,11 @@ def _find_contacts(old_position, old_velocity, position, velocity, radius, dt, r
 @numba.njit(error_model='numpy')
 def _bounding_spheres(old_position, position, radius, reals, wholes):
     """(centre (3, n) m, reach (n,) m, level (n,) int64, levels, used reals, used wholes):
-    each sphere's bounding sphere over the step and its level (see _find_contacts)."""
+    each sphere's bounding sphere over the step and its level (see detect_contacts)."""
     count = radius.size
-    centre, used_real = _take(reals, 0, 3 * count)
+    centre, used_real = take(reals, 0, 3 * count)
     centre = centre.reshape((3, count))
-    reach, used_real = _take(reals, used_real, count)
+    reach, used_real = take(reals, used_real, count)
     smallest = math.inf
     for i in range(count):
         sweep = 0.0
@@ -177,7 +177,7 @@ def _bounding_spheres(old_position, position, radius, reals, wholes):
             sweep += (position[axis, i] - old_position[axis, i]) ** 2
         reach[i] = radius[i] * (1.0 + SPECULATIVE_MARGIN) + 0.5 * math.sqrt(sweep)
         smallest = min(smallest, reach[i])
-    level, used_whole = _take(wholes, 0, count)
+    level, used_whole = take(wholes, 0, count)
     level[:] = 0
     top = 0
     for i in range(count):
@@ -234,10 +234,10 @@ def _cell_order(centre, level, low, size, cells, first_cell, wholes, used_whole)
     each cell's spheres begin in order; used wholes)."""
     count = level.size
     levels = first_cell.size - 1
-    home, used_whole = _take(wholes, used_whole, count)
-    where, used_whole = _take(wholes, used_whole, 3 * count)
+    home, used_whole = take(wholes, used_whole, count)
+    where, used_whole = take(wholes, used_whole, 3 * count)
     where = where.reshape((3, count))
-    start, used_whole = _take(wholes, used_whole, first_cell[levels] + 1)
+    start, used_whole = take(wholes, used_whole, first_cell[levels] + 1)
     start[:] = 0
     for i in range(count):
         at = level[i]
@@ -249,9 +249,9 @@ def _cell_order(centre, level, low, size, cells, first_cell, wholes, used_whole)
         start[home[i] + 1] += 1
     for c in range(first_cell[levels]):
         start[c + 1] += start[c]
-    fill, used_whole = _take(wholes, used_whole, first_cell[levels])
+    fill, used_whole = take(wholes, used_whole, first_cell[levels])
     fill[:] = start[:-1]
-    order, used_whole = _take(wholes, used_whole, count)
+    order, used_whole = take(wholes, used_whole, count)
     for i in range(count):
         order[fill[home[i]]] = i
         fill[home[i]] += 1
@@ -265,11 +265,11 @@ def _in_cell_order(old_position, old_velocity, position, velocity, radius, centr
     state (Contacts.state) in cell order: the candidate test reads memory in a row, and a
     pair's two rows are near each other. Returns them, then used reals and used wholes."""
     count = radius.size
-    sorted_bound, used_real = _take(reals, used_real, 4 * count)
+    sorted_bound, used_real = take(reals, used_real, 4 * count)
     sorted_bound = sorted_bound.reshape((count, 4))
-    sorted_cell, used_whole = _take(wholes, used_whole, 4 * count)
+    sorted_cell, used_whole = take(wholes, used_whole, 4 * count)
     sorted_cell = sorted_cell.reshape((count, 4))  # its cell x, y, z and its level
-    state, used_real = _take(reals, used_real, STATE_COLUMNS * count)
+    state, used_real = take(reals, used_real, STATE_COLUMNS * count)
     state = state.reshape((count, STATE_COLUMNS))
     for k in range(count):
         i = order[k]
@@ -290,7 +290,7 @@ def _in_cell_order(old_position, old_velocity, position, velocity, radius, centr
 def _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_bound, largest,
                      low, size, out):
     """The pairs (k, m) of cell-order rows whose bounding spheres meet, each once, written
-    into out (2, capacity) while they fit; returns how many there are (see _find_contacts
+    into out (2, capacity) while they fit; returns how many there are (see detect_contacts
     for the grid)."""
     count = sorted_cell.shape[0]
     capacity = out.shape[1]

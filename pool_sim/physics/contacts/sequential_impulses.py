@@ -31,7 +31,7 @@ import numpy as np
 from ..kernels.faces import face_bounce, on_a_face, shift, velocity_against_faces
 from ..kernels.friction import coulomb
 from ..kernels.step_guard import finite, put_back
-from .detection import _find_contacts, _take, END_POSITION, END_VELOCITY, RADIUS, \
+from .detection import detect_contacts, take, END_POSITION, END_VELOCITY, RADIUS, \
     START_POSITION
 
 # The most sweeps a step makes over its contacts; each stage stops once nothing changes.
@@ -80,7 +80,7 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     scratch its arrays come from (see workspace; empty ones will do)."""
     if radius.size < 2:
         return 0
-    contacts, used_real, used_whole = _find_contacts(old_position, old_velocity, position,
+    contacts, used_real, used_whole = detect_contacts(old_position, old_velocity, position,
                                                      velocity, radius, dt, reals, wholes)
     if contacts.pairs.shape[1] == 0:
         return 0
@@ -92,7 +92,7 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
                               used_real)
     # Sweep at which each row's velocity (then position) last changed: a contact neither
     # of whose spheres changed since its last visit is as it was, and is skipped.
-    changed_in, used_whole = _take(wholes, used_whole, r.size)
+    changed_in, used_whole = take(wholes, used_whole, r.size)
     rebounded = _velocity_sweeps(ends, facts, p, start, v, r, inverse_mass, on_face,
                                  changed_in, faces, has_faces, restitution, static_friction,
                                  kinetic_friction, has_friction, resting_speed, gravity_step)
@@ -132,34 +132,34 @@ def _rows(contacts, mass, faces, has_faces, reals, used_real, wholes, used_whole
     each; used reals; used wholes)."""
     pairs, state, found = contacts.pairs, contacts.state, contacts.pairs.shape[1]
     count = state.shape[0]
-    row_of, used_whole = _take(wholes, used_whole, count)  # state's row -> ours, or -1
+    row_of, used_whole = take(wholes, used_whole, count)  # state's row -> ours, or -1
     row_of[:] = -1
     for c in range(found):
         row_of[pairs[0, c]], row_of[pairs[1, c]] = 0, 0
-    member, used_whole = _take(wholes, used_whole, count)  # our row -> state's
+    member, used_whole = take(wholes, used_whole, count)  # our row -> state's
     members = 0
     for k in range(count):
         if row_of[k] == 0:
             row_of[k] = members
             member[members] = k
             members += 1
-    ends, used_whole = _take(wholes, used_whole, 2 * found)
+    ends, used_whole = take(wholes, used_whole, 2 * found)
     ends = ends.reshape((found, 2))  # contact -> its two rows
     for c in range(found):
         ends[c, 0], ends[c, 1] = row_of[pairs[0, c]], row_of[pairs[1, c]]
-    rows, used_real = _take(reals, used_real, 16 * members)
+    rows, used_real = take(reals, used_real, 16 * members)
     rows = rows.reshape((4, members, 4))  # the fourth column pads a row to 32 bytes
     rows[:, :, 3] = 0.0
     p = rows[0]  # position, m
     v = rows[1]  # velocity, m/s
     start = rows[2]  # position at the step's start, m
     entry = rows[3]  # position before the sweeps, m
-    inverse_mass, used_real = _take(reals, used_real, members)  # 1/kg
-    r, used_real = _take(reals, used_real, members)  # radius, m
+    inverse_mass, used_real = take(reals, used_real, members)  # 1/kg
+    r, used_real = take(reals, used_real, members)  # radius, m
     on_face = np.zeros(members, dtype=np.bool_)
     for k in range(members):
         row = member[k]
-        for axis in range(3):  # as _find_contacts' state holds them
+        for axis in range(3):  # as detect_contacts' state holds them
             p[k, axis] = state[row, END_POSITION + axis]
             v[k, axis] = state[row, END_VELOCITY + axis]
             start[k, axis] = state[row, START_POSITION + axis]
@@ -175,7 +175,7 @@ def _rows(contacts, mass, faces, has_faces, reals, used_real, wholes, used_whole
 def _facts(contacts, ends, v, inverse_mass, resting_speed, reals, used_real):
     """(facts (m, 8), used reals): each contact's row of the columns _NX.._REDUCED_MASS."""
     normals, closing, found = contacts.normal, contacts.closing, ends.shape[0]
-    facts, used_real = _take(reals, used_real, 8 * found)
+    facts, used_real = take(reals, used_real, 8 * found)
     facts = facts.reshape((found, 8))
     for c in range(found):
         a, b = ends[c, 0], ends[c, 1]
@@ -373,16 +373,16 @@ def _settle_on_floor(ends, facts, p, start, v, r, rebounded, faces, static_frict
         highest = max(highest, p[k, 2])
         smallest = min(smallest, r[k])
     layers = int(min((highest - lowest) / smallest, 4.0 * found)) + 1
-    layer_start, used_whole = _take(wholes, used_whole, layers + 1)
+    layer_start, used_whole = take(wholes, used_whole, layers + 1)
     layer_start[:] = 0
-    layer, used_whole = _take(wholes, used_whole, found)
+    layer, used_whole = take(wholes, used_whole, found)
     for c in range(found):
         height = min(p[ends[c, 0], 2], p[ends[c, 1], 2])
         layer[c] = min(int((height - lowest) / smallest), layers - 1)
         layer_start[layer[c] + 1] += 1
     for k in range(layers):
         layer_start[k + 1] += layer_start[k]
-    order, used_whole = _take(wholes, used_whole, found)
+    order, used_whole = take(wholes, used_whole, found)
     for c in range(found):
         order[layer_start[layer[c]]] = c
         layer_start[layer[c]] += 1
@@ -396,7 +396,7 @@ def _settle_on_floor(ends, facts, p, start, v, r, rebounded, faces, static_frict
         lifting[k] = supported[k] and v[k, 2] > resting_speed
     # Who rests on what: sorted bottom up, a few passes reach every layer (a pass misses
     # only a sphere held up through one of its own layer met later).
-    carries, used_whole = _take(wholes, used_whole, found)
+    carries, used_whole = take(wholes, used_whole, found)
     carries[:] = 0  # 1: the first sphere rests on the second
     for _ in range(8):
         spread = False

@@ -18,7 +18,7 @@ import math
 
 import numba
 
-from ..media import compiled
+from . import compiled
 from .friction import coulomb
 
 

@@ -1,6 +1,6 @@
 """Coulomb's law, once, for every contact that has friction: a sphere on the floor
 (faces.resolve_contacts) and a pair of spheres (contacts/), in impulses or in positions."""
-from ..media import compiled
+from . import compiled
 
 
 @compiled

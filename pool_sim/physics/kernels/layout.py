@@ -18,7 +18,7 @@
 """
 from collections import namedtuple
 
-from ..media import compiled
+from . import compiled
 
 Listed = namedtuple('Listed', ('gravity', 'buoyancy', 'drag', 'lift', 'added_mass',
                                'wave_radiation', 'cap', 'scalar'))

@@ -1,6 +1,6 @@
 """The step guard's two halves, for every pass that can leave a sphere non-finite: the
 test, and putting the sphere back where its step began, at rest."""
-from ..media import compiled
+from . import compiled
 
 
 @compiled
