@@ -1,12 +1,14 @@
-"""Whether a change of code costs time: the default step and RK4, at 10 000 and 3 spheres,
-of two checkouts side by side in one run.
+"""Whether a change of code costs time: the default step and RK4, at 10 000 and 3 spheres
+(and the default step with the collision pass at 1 000), of two checkouts side by side in
+one run.
 
     .venv/bin/python -m benchmarks.layout_cost BEFORE_TREE AFTER_TREE [--rounds 8]
 
 Each round starts one process per tree, in turn (before, after, then after, before, ...),
 each importing pool_sim from its own tree only; so the shared machine's slow spells fall
-on both alike. A process times every case in turns (10 000 spheres: 20 steps a call, one
-thread; 3 spheres, the default pool: 2 000 steps a call), each from the scene's start.
+on both alike. A process times every case in turns (10 000 and 1 000 spheres, random
+sizes and densities through air and water: 20 steps a call, one thread; 3 spheres, the
+default pool: 2 000 steps a call), each from the scene's start.
 Printed: ns per sphere-step, the median over every turn of every round, for each tree,
 and after / before.
 """
@@ -19,8 +21,10 @@ import subprocess
 import sys
 import time
 
-CASES = [('linearly_implicit_euler', 10_000), ('rk4', 10_000),
-         ('linearly_implicit_euler', 3), ('rk4', 3)]
+# (integrator, spheres, with collisions): the default effects, and the collision pass too.
+CASES = [('linearly_implicit_euler', 10_000, False), ('rk4', 10_000, False),
+         ('linearly_implicit_euler', 3, False), ('rk4', 3, False),
+         ('linearly_implicit_euler', 1_000, True)]
 
 # Run in a process whose only pool_sim is one tree's; prints {case: [ns per sphere-step]}.
 MEASURE = r'''
@@ -30,8 +34,9 @@ from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, stepper
 cases, turns = json.loads(sys.argv[1]), int(sys.argv[2])
 stepper.use_threads(1)
 simulations = []
-for integrator, count in cases:
-    scene = (many_spheres_scene(count, DEFAULT_EFFECTS, integrator=integrator) if count > 3
+for integrator, count, collisions in cases:
+    effects = list(DEFAULT_EFFECTS) + (['collisions'] if collisions else [])
+    scene = (many_spheres_scene(count, effects, integrator=integrator) if count > 3
              else Scene.default().with_values(integrator=integrator))
     simulations.append((Simulation(scene), 20 if count > 3 else 2000, count))
 for simulation, _, _ in simulations:
@@ -85,10 +90,11 @@ def main():
     print('| integrator | spheres | before, ns/sphere-step | after, ns/sphere-step '
           '| after / before |')
     print('|---|---:|---:|---:|---:|')
-    for (integrator, count), before, after in zip(CASES, samples['before'],
-                                                  samples['after']):
+    for (integrator, count, collisions), before, after in zip(CASES, samples['before'],
+                                                              samples['after']):
         low, high = statistics.median(before), statistics.median(after)
-        print(f'| {integrator} | {count:,} | {low:.1f} | {high:.1f} | {high / low:.3f} |')
+        spheres = f'{count:,}' + (' + collisions' if collisions else '')
+        print(f'| {integrator} | {spheres} | {low:.1f} | {high:.1f} | {high / low:.3f} |')
 
 
 if __name__ == '__main__':
