@@ -87,12 +87,12 @@ def parallel_from_spheres():
 
 @compiled
 def _faces_and_guard(listed, has_contact, has_friction, env, faces, contact_parameters,
-                     properties, old_position, old_velocity, new_position, new_velocity,
+                     radius, properties, old_position, old_velocity, new_position, new_velocity,
                      flagged, marked, failed, dt):
     """The second pass (see the module's docstring) over the spheres flagged (n,) marks
     (marked of them: none, no pass): contacts with the pool's faces (with has_contact), then
-    the step guard. Returns how many spheres the guard put back (flagged in failed (n,))."""
-    radius = properties[1]
+    the step guard. radius (n,) m; properties: the spheres' arrays (layout.properties_of).
+    Returns how many spheres the guard put back (flagged in failed (n,))."""
     put_back = 0
     for i in range(radius.shape[0] if marked else 0):
         if flagged[i] == 0:
@@ -195,9 +195,9 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                 flagged[i] = mark
                 marked += mark
             put_back += _faces_and_guard(
-                listed, has_contact, has_friction, world, faces, contact_parameters, properties,
-                old_position, old_velocity, new_position, new_velocity, flagged, marked,
-                failed, dt)
+                listed, has_contact, has_friction, world, faces, contact_parameters, radius,
+                properties, old_position, old_velocity, new_position, new_velocity, flagged,
+                marked, failed, dt)
             if has_collisions:
                 put_back += solve_collisions(
                     old_position, old_velocity, new_position, new_velocity, mass, radius,
