@@ -30,7 +30,7 @@ import numpy as np
 
 from benchmarks.common import write_csv
 from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, stepper
-from pool_sim.physics.collisions import overlaps
+from pool_sim.physics.contacts import overlaps
 
 RATE_HZ = 200.0
 RESTITUTION, FRICTION = 0.5, 0.6

@@ -228,7 +228,7 @@ def smooth_motion(times, position, velocity, sphere, world, effects, submerged_v
         return float(added), float(slope), float(damping)
 
     if 'wave_radiation' in effects:
-        from pool_sim.physics import wave_table
+        from pool_sim.physics.kernels import wave_table
         grid = (wave_table.DRAFTS, wave_table.MASS_AXIS)
         # The added mass: a cubic Hermite spline in s on each mass column, linear between.
         splines = [CubicHermiteSpline(wave_table.DRAFTS, wave_table.ADDED_MASS[:, j],

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from pool_sim.physics import INTEGRATORS, Scene, Simulation
-from pool_sim.physics.collisions import find_contacts, OVERLAP_TOLERANCE, overlaps, \
-    SPECULATIVE_MARGIN
+from pool_sim.physics.contacts.detection import find_contacts, overlaps, SPECULATIVE_MARGIN
+from pool_sim.physics.contacts.sequential_impulses import OVERLAP_TOLERANCE
 
 G = 9.81
 

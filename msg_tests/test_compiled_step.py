@@ -2,12 +2,15 @@
 follows an independent reference (DOP853 on the model written again in
 benchmarks/reference.py) at the order of its method, its plain and parallel builds agree bit
 for bit, and many steps in one call are those steps one by one."""
+import pathlib
+
 import numpy as np
 import pytest
 
 from benchmarks.reference import smooth_motion
 from pool_sim.physics import InvalidInput, INTEGRATORS, Scene, Simulation
 from pool_sim.physics import stepper
+from pool_sim.physics.contacts import SOLVERS
 
 SMOOTH = ['gravity', 'buoyancy', 'drag', 'lift', 'added_mass']
 WITH_WAVES = SMOOTH + ['wave_radiation']
@@ -166,3 +169,19 @@ def test_each_configuration_has_a_cache_name_of_its_own_that_carries_the_sources
              for effects in ([], ['gravity', 'contact'], SMOOTH) for parallel in (False, True)}
     assert len(names) == 5 * 2 * 3 * 2
     assert all(name.endswith(stepper.SOURCE_DIGEST) for name in names)
+
+
+def test_the_sources_digest_covers_every_file_the_compiled_loop_is_made_of():
+    physics = pathlib.Path(stepper.__file__).parent
+    expected = {physics / 'stepper.py', *physics.glob('kernels/*.py'),
+                *physics.glob('contacts/*.py')}
+    assert set(stepper._SOURCES) == expected
+    assert physics / 'kernels' / 'layout.py' in expected  # a kernel file found, not listed
+
+
+def test_the_contact_solver_is_chosen_by_its_name_in_contacts_solvers():
+    effects = ['gravity', 'contact', 'collisions']
+    for name in SOLVERS:
+        assert name in stepper.Stepper('rk4', effects, contact_solver=name).build(False).__name__
+    with pytest.raises(ValueError, match='contact_solver'):
+        stepper.Stepper('rk4', effects, contact_solver='no_such_solver')

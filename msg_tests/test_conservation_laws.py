@@ -6,7 +6,8 @@ import pytest
 
 from benchmarks.reference import lift_curve
 from pool_sim.physics import Scene, Simulation
-from pool_sim.physics.effects import effect_flags, lift_force
+from pool_sim.physics.effects import effect_flags
+from pool_sim.physics.kernels.effects import lift_force
 from pool_sim.physics.stepper import body_tuple, environment_tuple
 from scenes import G, one_sphere
 

@@ -16,7 +16,8 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 COUNT_CALLS = r'''
 import json, sys
-from pool_sim.physics import effects, Simulation
+from pool_sim.physics import Simulation
+from pool_sim.physics.kernels import effects
 from scenes import one_sphere
 
 # Every function of the core that computes an effect, and the effect it belongs to.
@@ -30,7 +31,7 @@ for name, effect in EFFECT_OF.items():
         counts[_effect] = counts.get(_effect, 0) + 1
         return _original(*args)
     setattr(effects, name, counted)
-for module in ('integrators',):  # names it imported from effects
+for module in ('kernels.integrators', 'stepper'):  # names they imported from effects
     imported = sys.modules['pool_sim.physics.' + module]
     for name in EFFECT_OF:
         if hasattr(imported, name):

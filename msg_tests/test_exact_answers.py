@@ -4,7 +4,9 @@ import math
 import numpy as np
 import pytest
 
-from pool_sim.physics import effects, Simulation
+from pool_sim.physics import Simulation
+from pool_sim.physics.effects import effect_flags
+from pool_sim.physics.kernels import effects
 from pool_sim.physics.stepper import body_tuple, environment_tuple
 from scenes import floating_draft_ratio, G, one_sphere, sphere_volume, WATER
 
@@ -50,7 +52,7 @@ def test_sphere_of_the_waters_density_stays_where_it_is_put():
 def explicit_force(sim, index=0):
     """The compiled per-sphere forces but drag (N) on one sphere, as the step sees them."""
     env, body = environment_tuple(sim.environment), body_tuple(sim.spheres, index)
-    listed = effects.effect_flags(sim.scene['effects'])
+    listed = effect_flags(sim.scene['effects'])
     fraction = effects.water_fraction(listed, env, body, float(sim.spheres.position[2, index]))
     return np.array(effects.explicit_force(listed, env, body,
                                            tuple(sim.spheres.velocity[:, index]), fraction))

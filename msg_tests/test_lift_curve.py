@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from pool_sim.physics import Simulation
-from pool_sim.physics.effects import effect_flags, lift_force
+from pool_sim.physics.effects import effect_flags
+from pool_sim.physics.kernels.effects import lift_force
 from pool_sim.physics.stepper import body_tuple, environment_tuple
 from scenes import one_sphere
 

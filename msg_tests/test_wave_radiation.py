@@ -10,7 +10,7 @@ import pytest
 from benchmarks import free_decay
 from benchmarks.reference import decay_period_and_damping
 from pool_sim.physics import DEFAULT_EFFECTS, Simulation
-from pool_sim.physics import wave_table
+from pool_sim.physics.kernels import wave_table
 from scenes import floating_draft_ratio, one_sphere
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent

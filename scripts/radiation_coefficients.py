@@ -12,7 +12,8 @@ Two stages:
 2. (always; numpy and scipy) finds, at each draft s and mass number mu = m / (rho r^3),
    the dominant complex root of the Cummins equation's heave (dominant_pole; started from
    the natural frequency nu_n = pi s (2 - s) / (mu + A(nu_n, s))), and writes the one-mode
-   oscillator with that root, its added mass and damping, as pool_sim/physics/wave_table.py.
+   oscillator with that root, its added mass and damping, as
+   pool_sim/physics/kernels/wave_table.py.
 
 Non-dimensional coefficients: A = A33 / (rho r^3), B = B33 / (rho r^3 omega).
 """
@@ -26,7 +27,7 @@ import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 BEM_FILE = ROOT / 'results' / 'wave_radiation' / 'bem_heave.json'
-TABLE_FILE = ROOT / 'pool_sim' / 'physics' / 'wave_table.py'
+TABLE_FILE = ROOT / 'pool_sim' / 'physics' / 'kernels' / 'wave_table.py'
 
 DRAFTS = np.round(np.concatenate([[0.05], np.arange(0.1, 1.95, 0.1), [1.95]]), 4)
 FREQUENCIES = np.concatenate([[0.0], np.geomspace(0.01, 30.0, 34), [np.inf]])

@@ -9,8 +9,9 @@ import time
 
 import numpy as np
 
-from .collisions import workspace as collision_workspace
-from .effects import heave_added_masses
+from .contacts import workspace as collision_workspace
+from .kernels.effects import heave_added_masses
+from .kernels.layout import properties_of
 from .media import cap_volume_integral, linear_volume_integral
 from .schema import GLOBAL_KEYS
 from .spheres import InvalidInput, shown
@@ -84,10 +85,7 @@ class Simulation:
                              np.zeros(spheres.count, dtype=np.uint8),
                              *collision_workspace(spheres.count if 'collisions' in
                                                   self.scene['effects'] else 0))
-        arrays = (spheres.position, spheres.velocity, spheres.mass, spheres.radius,
-                  spheres.volume, spheres.cross_section, spheres.drag_coefficient,
-                  spheres.lift_coefficient, spheres.lift_area, spheres.lift_normal,
-                  spheres.external_force, spheres.lift_slope, spheres.stall_angle,
+        arrays = (spheres.position, spheres.velocity, *properties_of(spheres),
                   *self._constants)
         put_back = self.stepper.run(arrays, self._scratch, int(steps), dt)
         if put_back:
@@ -221,7 +219,7 @@ def mechanical_energy(env, spheres, with_buoyancy=True, with_gravity=True,
     kinetic = 0.5 * spheres.mass * np.einsum('ij,ij->j', spheres.velocity, spheres.velocity)
     energy = kinetic
     if with_wave_radiation:
-        carried = heave_added_masses(environment_array(env), spheres.mass, spheres.radius,
+        carried = heave_added_masses(environment_array(env), properties_of(spheres),
                                      np.ascontiguousarray(spheres.position[2]))
         energy = energy + 0.5 * carried * spheres.velocity[2]**2
     if with_gravity:

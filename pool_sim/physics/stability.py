@@ -17,9 +17,9 @@ import numba
 import numpy as np
 
 from .integrators import INTEGRATORS
-from .media import compiled
+from .kernels import compiled
+from .kernels.wave_table import DAMPING_RATE, MASS_AXIS
 from .stepper import SOURCE_DIGEST
-from .wave_table import DAMPING_RATE, MASS_AXIS
 
 UNCONDITIONALLY_STABLE = frozenset({'linearly_implicit_euler'})
 

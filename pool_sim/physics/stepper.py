@@ -17,7 +17,7 @@ all. Each step is two passes over the spheres (three with collisions):
    bounce would not fit a double) goes back to where that step began, at rest, and is
    flagged. A step reads one pair of state arrays and writes the other, so the step's
    start is still there for them without a copy of every sphere;
-3. with `collisions` listed, sphere-sphere contact over all spheres (collisions.py), which
+3. with `collisions` listed, sphere-sphere contact over all spheres (contacts/), which
    needs both the step's start and its end.
 
 Compiled functions are cached on disk (numba's cache, beside this file or in the user's
@@ -28,16 +28,21 @@ import hashlib
 import math
 import pathlib
 import threading
+import types
 
 import numba
 import numpy as np
 
-from .collisions import resolve_collisions
-from .contact import resolve_contacts
-from .effects import effect_flags, heave_body, heave_radiation, inertia, water_fraction, \
-    water_taken_on, WAVE_RADIATION
-from .integrators import explicit_euler, INTEGRATORS, linearly_implicit_euler, rk4, \
+from .contacts import DEFAULT_SOLVER, SOLVERS
+from .effects import effect_flags
+from .integrators import INTEGRATORS
+from .kernels import compiled
+from .kernels.effects import heave_radiation, inertia, water_fraction, water_taken_on
+from .kernels.faces import resolve_contacts
+from .kernels.integrators import explicit_euler, linearly_implicit_euler, rk4, \
     semi_implicit_euler, velocity_verlet
+from .kernels.layout import Body, body_of, Env, env_of, properties_of
+from .kernels.step_guard import finite, put_back as put_back_sphere
 
 INTEGRATOR_CODES = {name: code for code, name in enumerate(INTEGRATORS)}
 # The codes run_steps dispatches on, by name (its globals: constants when it compiles).
@@ -46,10 +51,14 @@ _EXPLICIT_EULER, _SEMI_IMPLICIT_EULER = (INTEGRATOR_CODES['explicit_euler'],
                                          INTEGRATOR_CODES['semi_implicit_euler'])
 _VELOCITY_VERLET, _RK4 = INTEGRATOR_CODES['velocity_verlet'], INTEGRATOR_CODES['rk4']
 _LINEARLY_IMPLICIT_EULER = INTEGRATOR_CODES['linearly_implicit_euler']
-_SOURCES = ('media.py', 'wave_table.py', 'effects.py', 'integrators.py', 'contact.py',
-            'collisions.py', 'stepper.py')
-SOURCE_DIGEST = hashlib.sha256(b''.join(
-    (pathlib.Path(__file__).parent / name).read_bytes() for name in _SOURCES)).hexdigest()[:16]
+# Every file the compiled loop is made of, found by pattern so that no new one is missed:
+# an edit to any of them compiles the loop afresh.
+_SOURCE_PATTERNS = ('stepper.py', 'kernels/**/*.py', 'contacts/**/*.py')
+_SOURCES = sorted({path for pattern in _SOURCE_PATTERNS
+                   for path in pathlib.Path(__file__).parent.glob(pattern)})
+SOURCE_DIGEST = hashlib.sha256(b''.join(path.read_bytes() for path in _SOURCES)).hexdigest()[:16]
+# The contact solver run_steps calls: each configuration's copy has its own (_compose).
+solve_collisions = SOLVERS[DEFAULT_SOLVER]
 
 # Below this many spheres launching the parallel loop costs more than vectorising saves.
 # A launch costs ~5 us with the OpenMP or TBB threading layer and ~100 us with numba's own
@@ -76,8 +85,44 @@ def parallel_from_spheres():
                                      PARALLEL_FROM_SPHERES['workqueue'])
 
 
-def _compose(integrator_code, listed, has_contact, has_friction, has_collisions, parallel,
-             source_digest):
+@compiled
+def _faces_and_guard(listed, has_contact, has_friction, env, faces, contact_parameters,
+                     radius, properties, old_position, old_velocity, new_position, new_velocity,
+                     flagged, marked, failed, dt):
+    """The second pass (see the module's docstring) over the spheres flagged (n,) marks
+    (marked of them: none, no pass): contacts with the pool's faces (with has_contact), then
+    the step guard. radius (n,) m; properties: the spheres' arrays (layout.properties_of).
+    Returns how many spheres the guard put back (flagged in failed (n,))."""
+    put_back = 0
+    for i in range(radius.shape[0] if marked else 0):
+        if flagged[i] == 0:
+            continue
+        state = (new_position[0, i], new_position[1, i], new_position[2, i],
+                 new_velocity[0, i], new_velocity[1, i], new_velocity[2, i])
+        overflow = not finite(state)
+        if has_contact and not overflow:
+            old = (old_position[0, i], old_position[1, i], old_position[2, i],
+                   old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
+            s, overflow = resolve_contacts(faces, contact_parameters, has_friction,
+                                           radius[i], old, state, dt)
+            if listed.wave_radiation and not overflow:
+                # Moved by the contact to where it may carry more water.
+                body = body_of(properties, i)
+                added = heave_radiation(listed, env, body, state[2])[0]
+                inertia_z = inertia(listed, env, body, water_fraction(
+                    listed, env, body, state[2])) + added
+                s = (s[0], s[1], s[2], s[3], s[4],
+                     water_taken_on(listed, env, body, inertia_z, added, s[2], s[5]))
+            new_position[0, i], new_position[1, i], new_position[2, i] = s[0], s[1], s[2]
+            new_velocity[0, i], new_velocity[1, i], new_velocity[2, i] = s[3], s[4], s[5]
+        if overflow:
+            put_back_sphere(new_position, new_velocity, old_position, failed, i)
+            put_back += 1
+    return put_back
+
+
+def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
+             contact_solver, parallel, source_digest):
     """The compiled step loop of one configuration (see the module's docstring).
 
     Every argument is a compile-time constant of the function made here (a closure
@@ -97,20 +142,18 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
         still there for the few spheres that need it: those the smooth pass marks in
         flagged (n,) uint8, on or past a face or non-finite. The result ends in position
         and velocity. collision_reals, collision_wholes: the collision pass's scratch
-        (collisions.workspace; empty without collisions)."""
-        gx, gy, gz = environment[0], environment[1], environment[2]
-        air_density, wind_x, wind_y, wind_z = (environment[3], environment[4],
-                                               environment[5], environment[6])
-        water_density, current_x, current_y, current_z = (environment[7], environment[8],
-                                                          environment[9], environment[10])
-        surface_z = environment[11]
+        (contacts.workspace; empty without collisions)."""
+        world = env_of(environment)  # the parallel loop makes its own (see there)
+        properties = (mass, radius, volume, cross_section, drag_coefficient, lift_coefficient,
+                      lift_area, lift_normal, external_force, lift_slope, stall_angle)
         faces = (pool[0], pool[1], pool[2], pool[3], pool[4], pool[5])
         low_x, low_y, low_z, high_x, high_y, high_z = faces
         contact_parameters = (contact[0], contact[1], contact[2], contact[3])
+        gx, gy, gz = world.gravity_x, world.gravity_y, world.gravity_z
         # A rebound slower than gravity adds in one step is resting contact.
-        resting_speed = math.sqrt(gx * gx + gy * gy + gz * gz) * dt if listed[0] else 0.0
-        floor_supports = listed[0] and gz < 0.0  # piles rest on the floor (collisions.py)
-        gravity_step = (gx * dt, gy * dt, gz * dt) if listed[0] else (0.0, 0.0, 0.0)
+        resting_speed = math.sqrt(gx * gx + gy * gy + gz * gz) * dt if listed.gravity else 0.0
+        floor_supports = listed.gravity and gz < 0.0  # piles rest on the floor (contacts/)
+        gravity_step = (gx * dt, gy * dt, gz * dt) if listed.gravity else (0.0, 0.0, 0.0)
         count = position.shape[1]
         put_back = 0
         for step in range(steps):
@@ -122,13 +165,9 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                 new_position, new_velocity = position, velocity
             marked = 0
             for i in each_sphere(count):
-                env = (gx, gy, gz, air_density, wind_x, wind_y, wind_z, water_density,
-                       current_x, current_y, current_z, surface_z)
-                body = (mass[i], radius[i], volume[i], cross_section[i], drag_coefficient[i],
-                        lift_coefficient[i], lift_area[i], lift_normal[0, i],
-                        lift_normal[1, i], lift_normal[2, i], external_force[0, i],
-                        external_force[1, i], external_force[2, i], 1.0 / radius[i],
-                        lift_slope[i], stall_angle[i])
+                # Made here, not captured: numba's parallel loop cannot take a namedtuple in.
+                env = env_of(environment)
+                body = body_of(properties, i)
                 start = (old_position[0, i], old_position[1, i], old_position[2, i])
                 start_velocity = (old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
                 if integrator_code == _EXPLICIT_EULER:
@@ -148,47 +187,19 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                 # inside no face either). Stored whatever it is, and counted in an integer
                 # reduction: a conditional store would stop the loop vectorising.
                 r = radius[i]
-                finite = (s[0] * 0.0 + s[1] * 0.0 + s[2] * 0.0 + s[3] * 0.0 + s[4] * 0.0
-                          + s[5] * 0.0) == 0.0
                 # & rather than `and`: no branch for the vectoriser to undo.
                 inside = ((low_x + r < s[0]) & (s[0] < high_x - r) & (low_y + r < s[1])
                           & (s[1] < high_y - r) & (low_z + r < s[2]) & (s[2] < high_z - r)
                           if has_contact else True)
-                mark = 0 if finite & inside else 1
+                mark = 0 if finite(s) & inside else 1
                 flagged[i] = mark
                 marked += mark
-            for i in range(count if marked else 0):
-                if flagged[i] == 0:
-                    continue
-                state = (new_position[0, i], new_position[1, i], new_position[2, i],
-                         new_velocity[0, i], new_velocity[1, i], new_velocity[2, i])
-                overflow = not (state[0] * 0.0 + state[1] * 0.0 + state[2] * 0.0
-                                + state[3] * 0.0 + state[4] * 0.0 + state[5] * 0.0) == 0.0
-                if has_contact and not overflow:
-                    old = (old_position[0, i], old_position[1, i], old_position[2, i],
-                           old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
-                    s, overflow = resolve_contacts(faces, contact_parameters, has_friction,
-                                                   radius[i], old, state, dt)
-                    if listed[WAVE_RADIATION] and not overflow:
-                        # Moved by the contact to where it may carry more water.
-                        env = (gx, gy, gz, air_density, wind_x, wind_y, wind_z, water_density,
-                               current_x, current_y, current_z, surface_z)
-                        body = heave_body(mass[i], radius[i], volume[i])
-                        added = heave_radiation(listed, env, body, state[2])[0]
-                        inertia_z = inertia(listed, env, body, water_fraction(
-                            listed, env, body, state[2])) + added
-                        s = (s[0], s[1], s[2], s[3], s[4],
-                             water_taken_on(listed, env, body, inertia_z, added, s[2], s[5]))
-                    new_position[0, i], new_position[1, i], new_position[2, i] = s[0], s[1], s[2]
-                    new_velocity[0, i], new_velocity[1, i], new_velocity[2, i] = s[3], s[4], s[5]
-                if overflow:
-                    for axis in range(3):
-                        new_position[axis, i] = old_position[axis, i]
-                        new_velocity[axis, i] = 0.0
-                    failed[i] = 1
-                    put_back += 1
+            put_back += _faces_and_guard(
+                listed, has_contact, has_friction, world, faces, contact_parameters, radius,
+                properties, old_position, old_velocity, new_position, new_velocity, flagged,
+                marked, failed, dt)
             if has_collisions:
-                put_back += resolve_collisions(
+                put_back += solve_collisions(
                     old_position, old_velocity, new_position, new_velocity, mass, radius,
                     faces, has_contact, contact_parameters, has_friction,
                     resting_speed, gravity_step, floor_supports, failed, collision_reals,
@@ -204,41 +215,51 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
     # carries the configuration and the digest of every physics source, so each
     # configuration has a cache index of its own (no two processes saving different ones
     # into one index) and an edit to any source compiles afresh.
+    # The solver is a global of this configuration's own copy (numba's cache cannot key a
+    # compiled function held in a closure: it pickles one differently in every process).
     flags = ''.join('1' if flag else '0'
                     for flag in (*listed, has_contact, has_friction, has_collisions))
-    run_steps.__qualname__ = run_steps.__name__ = (
-        f'run_steps_{INTEGRATORS_BY_CODE[integrator_code]}_{flags}_'
-        f'{"parallel" if parallel else "plain"}_{source_digest}')
+    name = (f'run_steps_{INTEGRATORS_BY_CODE[integrator_code]}_{flags}_{contact_solver}_'
+            f'{"parallel" if parallel else "plain"}_{source_digest}')
+    configured = types.FunctionType(
+        run_steps.__code__, {**globals(), 'solve_collisions': SOLVERS[contact_solver]}, name,
+        None, run_steps.__closure__)
+    configured.__qualname__ = name
     return numba.njit(cache=True, nogil=True, error_model='numpy', parallel=parallel)(
-        run_steps)
+        configured)
 
 
 class Stepper:
     """The compiled step of one scene configuration.
 
     integrator: a name of INTEGRATORS.  effects: the scene's effects list.
-    submerged_volume: 'cap' or 'linear'. Builds are compiled (or loaded from the cache) on
+    submerged_volume: 'cap' or 'linear'.  contact_solver: a name of contacts.SOLVERS, the
+    solver of the `collisions` effect. Builds are compiled (or loaded from the cache) on
     first use: the plain one for few spheres, the parallel one for many.
     """
 
     _builds = {}  # configuration -> compiled function, shared by every Stepper
     _builds_lock = threading.Lock()
 
-    def __init__(self, integrator, effects, submerged_volume='cap'):
+    def __init__(self, integrator, effects, submerged_volume='cap',
+                 contact_solver=DEFAULT_SOLVER):
+        if contact_solver not in SOLVERS:
+            raise ValueError(f'contact_solver: one of {sorted(SOLVERS)}, got {contact_solver!r}')
         self.configuration = (INTEGRATOR_CODES[integrator],
                               effect_flags(effects, submerged_volume),
                               'contact' in effects, 'friction' in effects,
-                              'collisions' in effects)
+                              'collisions' in effects, contact_solver)
         self._listed = {parallel: effect_flags(effects, submerged_volume, scalar=not parallel)
                         for parallel in (False, True)}  # the parallel loop is the vectorised
         self._mine = [None, None]  # this Stepper's plain and parallel build, once looked up
 
     def build(self, parallel):
         """The compiled function for this configuration, plain or parallel."""
-        integrator_code, _, has_contact, has_friction, has_collisions = self.configuration
+        (integrator_code, _, has_contact, has_friction, has_collisions,
+         contact_solver) = self.configuration
         parallel = bool(parallel)
         key = (integrator_code, self._listed[parallel], has_contact, has_friction,
-               has_collisions, parallel)
+               has_collisions, contact_solver, parallel)
         with self._builds_lock:
             function = self._builds.get(key)
             if function is None:
@@ -264,22 +285,18 @@ class Stepper:
 
 
 def environment_array(env):
-    """The world as run_steps takes it: (12,) float64, in effects.py's `env` order."""
+    """The world as run_steps takes it: (12,) float64, in Env's order (kernels/layout.py)."""
     return np.array([*env.gravity, env.air.density, *env.air.flow_velocity,
                      env.water.density, *env.water.flow_velocity, env.surface_z], dtype=float)
 
 
 def environment_tuple(env):
-    """The world as the compiled per-sphere functions take it (effects.py's `env`)."""
-    return tuple(environment_array(env).tolist())
+    """The world as the compiled per-sphere functions take it, an Env."""
+    return Env(*environment_array(env).tolist())
 
 
 def body_tuple(spheres, index):
-    """One sphere as the compiled per-sphere functions take it (effects.py's `body`)."""
-    i = index
-    return (float(spheres.mass[i]), float(spheres.radius[i]), float(spheres.volume[i]),
-            float(spheres.cross_section[i]), float(spheres.drag_coefficient[i]),
-            float(spheres.lift_coefficient[i]), float(spheres.lift_area[i]),
-            *spheres.lift_normal[:, i].tolist(), *spheres.external_force[:, i].tolist(),
-            1.0 / float(spheres.radius[i]), float(spheres.lift_slope[i]),
-            float(spheres.stall_angle[i]))
+    """Sphere `index` of spheres (a Spheres) as the compiled per-sphere functions take it,
+    a Body, packed by the loop's own body_of."""
+    pack = getattr(body_of, 'py_func', body_of)  # numba's, or plain under NUMBA_DISABLE_JIT
+    return Body(*(float(field) for field in pack(properties_of(spheres), index)))

@@ -1,0 +1,407 @@
+"""Sphere-sphere contact detection, the first half of the `collisions` effect: this step's
+pairs in contact, as one Contacts record, for a solver (SOLVERS in contacts/__init__.py).
+
+1. Broad phase: each sphere's bounding sphere over the step (the segment its centre moved
+   along, widened by its radius and SPECULATIVE_MARGIN), so a fast sphere cannot pass
+   through another within a step. Bounding spheres go into levels by size, and each level
+   is a cell list (a dense grid, counting-sorted): linear in the number of spheres,
+   whatever the mix of radii.
+2. Narrow phase: the relative motion of the two centres over the step is taken as linear;
+   a pair is in contact when the centres come within the sum of the radii, and the normal
+   is the direction between them at that first moment (time of impact). Pairs whose
+   bounding spheres meet but which stay apart all step are speculative contacts: they may
+   close no more than their gap, however impulses elsewhere set them moving.
+"""
+from collections import namedtuple
+import math
+
+import numba
+import numpy as np
+
+from ..kernels.faces import impact_speed
+
+# The broad phase widens every sphere by this fraction of its radius: pairs at rest apart
+# by less than this of their radii's sum are (speculative) contacts too.
+SPECULATIVE_MARGIN = 0.02
+# Centres this much (of the radii's sum) beyond touching still touch: rounding.
+_TOUCHING = 1e-9
+# Broad-phase levels hold reaches within this factor of each other; each level's cell
+# list has at most this many cells per sphere in it (a sparse scene gets coarser cells).
+_LEVEL_RATIO = 4.0
+_CELLS_PER_SPHERE = 4.0
+_MAX_LEVEL = 40
+
+Contacts = namedtuple('Contacts', ('pairs', 'normal', 'excess', 'added', 'closing', 'order',
+                                   'state'))
+Contacts.__doc__ = """This step's contacts, m of them among n spheres, from detect_contacts.
+
+pairs: (2, m) int64, each contact's two rows of `state`.
+normal: (3, m), unit, from the second sphere toward the first, at the time of impact (at
+    the step's start for a pair already touching then; at its end for a speculative one).
+excess: (m,) m/s, how much faster the pair approaches at the step's end than at impact.
+added: (m,) m/s, how much the step's own forces added to its approach.
+closing: (m,) m/s, the approach speed a pair still apart at the step's end may keep (its
+    gap / dt; 0 for a touching one).
+order: (n,) int64, the sphere in each row of `state` (rows are in cell order).
+state: (n, STATE_COLUMNS) float64, the spheres in cell order; its columns from
+    START_POSITION (3, m), END_POSITION (3, m), START_VELOCITY (3, m/s), END_VELOCITY
+    (3, m/s) and RADIUS (1, m) on; a row is two cache lines.
+"""
+START_POSITION, END_POSITION, START_VELOCITY, END_VELOCITY, RADIUS = 0, 3, 6, 9, 12
+STATE_COLUMNS = 16
+
+
+def workspace(count):
+    """(reals (float64), wholes (int64)): 1-D scratch the collision pass of `count` spheres
+    takes its large arrays from, step after step, instead of allocating them anew.
+
+    The node fixes glibc's mmap threshold at 256 kB, so allocated anew each of them was
+    mapped, page-faulted in and unmapped every step (10 000 spheres landing, one A/B run
+    under that threshold: 600 against 491 ns a sphere-step). Sized for up to
+    contact_capacity(count) contacts; a step with more takes fresh arrays for the rest.
+    Pages never touched take no memory; no spheres (or one) take none at all."""
+    if count < 2:
+        return np.empty(0), np.empty(0, dtype=np.int64)
+    contacts = contact_capacity(count)
+    reals = 42 * count + 14 * contacts
+    wholes = 20 * count + 15 * contacts + 2 * (64 * (_MAX_LEVEL + 1) + 1) + 2
+    return np.empty(reals), np.empty(wholes, dtype=np.int64)
+
+
+@numba.njit(error_model='numpy', inline='always')
+def contact_capacity(count):
+    """The candidate pairs (and so contacts) the broad phase has room for at first."""
+    return 4 * count + 16
+
+
+@numba.njit(error_model='numpy', inline='always')
+def take(buffer, used, size):
+    """(size items of buffer from used on, uninitialised; where the next take starts), or a
+    new array when buffer has no room left (see workspace)."""
+    if used + size <= buffer.size:
+        return buffer[used:used + size], used + size
+    return np.empty(size, dtype=buffer.dtype), used
+
+
+@numba.njit(error_model='numpy', inline='always')
+def _cell_of(coordinate, origin, size, cells):
+    """The cell (0..cells-1) a coordinate m falls in along one axis of a level's grid."""
+    return min(max(int((coordinate - origin) / size), 0), cells - 1)
+
+
+@numba.njit(error_model='numpy')
+def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
+    """detect_contacts with arrays of its own (for tests and diagnostics): its first five
+    results, the pairs as sphere indices (not rows of its state)."""
+    none = np.empty(0), np.empty(0, dtype=np.int64)
+    rows, normals, excess, added, closing, order, _, _, _ = detect_contacts(
+        old_position, old_velocity, position, velocity, radius, dt, none[0], none[1])
+    pairs = np.empty_like(rows)
+    for c in range(rows.shape[1]):
+        pairs[0, c], pairs[1, c] = order[rows[0, c]], order[rows[1, c]]
+    return pairs, normals, excess, added, closing
+
+@numba.njit(error_model='numpy')
+def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
+    """detect_contacts with arrays of its own (for tests and diagnostics): (pairs (2, m) as
+    sphere indices, not rows of its state; normal, excess, added, closing)."""
+    none = np.empty(0), np.empty(0, dtype=np.int64)
+    contacts, _, _ = detect_contacts(old_position, old_velocity, position, velocity, radius,
+                                    dt, none[0], none[1])
+    rows, order = contacts.pairs, contacts.order
+    pairs = np.empty_like(rows)
+    for c in range(rows.shape[1]):
+        pairs[0, c], pairs[1, c] = order[rows[0, c]], order[rows[1, c]]
+    return pairs, contacts.normal, contacts.excess, contacts.added, contacts.closing
+
+
+@numba.njit(error_model='numpy')
+def detect_contacts(old_position, old_velocity, position, velocity, radius, dt, reals,
+                   wholes):
+    """(Contacts, used reals, used wholes): the pairs in contact this step, their arrays
+    taken from reals and wholes (see workspace), and how much of each they used.
+
+    The broad phase: each sphere's bounding sphere over the step (its centre's path,
+    widened by its radius and the speculative margin) goes in a level by its size, reaches
+    within _LEVEL_RATIO of each other in one level. Each level is a cell list: a dense grid
+    over its spheres' extent, cells at least the level's largest bounding diameter (so
+    partners are in the 27 cells around), counting-sorted so that a row of three cells
+    along x is one run of memory. A sphere meets its own level's spheres in 9 such rows
+    and every finer level's in the rows its bounding box covers there.
+    """
+    count = radius.size
+    centre, reach, level, levels, used_real, used_whole = _bounding_spheres(
+        old_position, position, radius, reals, wholes)
+    members, largest, low, size, cells, first_cell = _grids(centre, reach, level, levels)
+    order, where, start, used_whole = _cell_order(centre, level, low, size, cells,
+                                                  first_cell, wholes, used_whole)
+    sorted_bound, sorted_cell, state, used_real, used_whole = _in_cell_order(
+        old_position, old_velocity, position, velocity, radius, centre, reach, level, where,
+        order, reals, used_real, wholes, used_whole)
+    # Candidates first (bounding spheres that meet), in a loop of their own: the narrow
+    # phase inside the cell loops ran six times slower than on its own.
+    capacity = contact_capacity(count)
+    candidates, used_whole = take(wholes, used_whole, 2 * capacity)
+    candidates = candidates.reshape((2, capacity))
+    total = _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_bound,
+                             largest, low, size, candidates)
+    if total > candidates.shape[1]:
+        candidates = np.empty((2, total), dtype=np.int64)
+        _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_bound,
+                         largest, low, size, candidates)
+    # Every candidate is a contact: touching within the step, or speculative (_narrow_phase).
+    facts, used_real = take(reals, used_real, 6 * total)
+    facts = facts.reshape((6, total))  # normal (3), excess, added, closing
+    for c in range(total):
+        normal, excess, added, closing = _narrow_phase(state, candidates[0, c],
+                                                       candidates[1, c], dt)
+        facts[0, c], facts[1, c], facts[2, c] = normal
+        facts[3, c], facts[4, c], facts[5, c] = excess, added, closing
+    return (Contacts(candidates[:, :total], facts[:3], facts[3], facts[4], facts[5], order,
+                     state), used_real, used_whole)
+
+
+@numba.njit(error_model='numpy')
+def _bounding_spheres(old_position, position, radius, reals, wholes):
+    """(centre (3, n) m, reach (n,) m, level (n,) int64, levels, used reals, used wholes):
+    each sphere's bounding sphere over the step and its level (see detect_contacts)."""
+    count = radius.size
+    centre, used_real = take(reals, 0, 3 * count)
+    centre = centre.reshape((3, count))
+    reach, used_real = take(reals, used_real, count)
+    smallest = math.inf
+    for i in range(count):
+        sweep = 0.0
+        for axis in range(3):
+            centre[axis, i] = 0.5 * (old_position[axis, i] + position[axis, i])
+            sweep += (position[axis, i] - old_position[axis, i]) ** 2
+        reach[i] = radius[i] * (1.0 + SPECULATIVE_MARGIN) + 0.5 * math.sqrt(sweep)
+        smallest = min(smallest, reach[i])
+    level, used_whole = take(wholes, 0, count)
+    level[:] = 0
+    top = 0
+    for i in range(count):
+        bound = smallest * _LEVEL_RATIO
+        while reach[i] > bound and level[i] < _MAX_LEVEL:
+            bound *= _LEVEL_RATIO
+            level[i] += 1
+        top = max(top, level[i])
+    levels = top + 1
+    return centre, reach, level, levels, used_real, used_whole
+
+
+@numba.njit(error_model='numpy')
+def _grids(centre, reach, level, levels):
+    """Each level's cell list: (members (levels,) int64, largest reach (levels,) m, low
+    corner (levels, 3) m, cell size (levels,) m, cells (levels, 3) int64 along each axis,
+    first_cell (levels + 1,) int64, where each level's cells begin in one numbering)."""
+    count = reach.size
+    members = np.zeros(levels, dtype=np.int64)
+    largest = np.zeros(levels)
+    low = np.full((levels, 3), math.inf)
+    high = np.full((levels, 3), -math.inf)
+    for i in range(count):
+        at = level[i]
+        members[at] += 1
+        largest[at] = max(largest[at], reach[i])
+        for axis in range(3):
+            low[at, axis] = min(low[at, axis], centre[axis, i])
+            high[at, axis] = max(high[at, axis], centre[axis, i])
+    size = np.zeros(levels)
+    cells = np.ones((levels, 3), dtype=np.int64)
+    first_cell = np.zeros(levels + 1, dtype=np.int64)
+    for at in range(levels):
+        if members[at] > 0:
+            size[at] = 2.0 * largest[at]
+            budget = _CELLS_PER_SPHERE * members[at] + 64.0
+            while True:
+                total = 1.0
+                for axis in range(3):
+                    total *= math.floor((high[at, axis] - low[at, axis]) / size[at]) + 1.0
+                if total <= budget:
+                    break
+                size[at] *= 1.25  # coarser cells: still at least the bounding diameter
+            for axis in range(3):
+                cells[at, axis] = int((high[at, axis] - low[at, axis]) / size[at]) + 1
+        first_cell[at + 1] = first_cell[at] + cells[at, 0] * cells[at, 1] * cells[at, 2]
+    return members, largest, low, size, cells, first_cell
+
+
+@numba.njit(error_model='numpy')
+def _cell_order(centre, level, low, size, cells, first_cell, wholes, used_whole):
+    """Counting sort of the spheres by cell: (order (n,) int64, the sphere in each place;
+    where (3, n) int64, each sphere's cell along each axis; start (cells + 1,) int64, where
+    each cell's spheres begin in order; used wholes)."""
+    count = level.size
+    levels = first_cell.size - 1
+    home, used_whole = take(wholes, used_whole, count)
+    where, used_whole = take(wholes, used_whole, 3 * count)
+    where = where.reshape((3, count))
+    start, used_whole = take(wholes, used_whole, first_cell[levels] + 1)
+    start[:] = 0
+    for i in range(count):
+        at = level[i]
+        for axis in range(3):
+            where[axis, i] = _cell_of(centre[axis, i], low[at, axis], size[at],
+                                      cells[at, axis])
+        home[i] = first_cell[at] + where[0, i] + cells[at, 0] * (
+            where[1, i] + cells[at, 1] * where[2, i])
+        start[home[i] + 1] += 1
+    for c in range(first_cell[levels]):
+        start[c + 1] += start[c]
+    fill, used_whole = take(wholes, used_whole, first_cell[levels])
+    fill[:] = start[:-1]
+    order, used_whole = take(wholes, used_whole, count)
+    for i in range(count):
+        order[fill[home[i]]] = i
+        fill[home[i]] += 1
+    return order, where, start, used_whole
+
+
+@numba.njit(error_model='numpy')
+def _in_cell_order(old_position, old_velocity, position, velocity, radius, centre, reach,
+                   level, where, order, reals, used_real, wholes, used_whole):
+    """The bounding spheres (n, 4: centre m, reach m), cells (n, 4: x, y, z, level) and
+    state (Contacts.state) in cell order: the candidate test reads memory in a row, and a
+    pair's two rows are near each other. Returns them, then used reals and used wholes."""
+    count = radius.size
+    sorted_bound, used_real = take(reals, used_real, 4 * count)
+    sorted_bound = sorted_bound.reshape((count, 4))
+    sorted_cell, used_whole = take(wholes, used_whole, 4 * count)
+    sorted_cell = sorted_cell.reshape((count, 4))  # its cell x, y, z and its level
+    state, used_real = take(reals, used_real, STATE_COLUMNS * count)
+    state = state.reshape((count, STATE_COLUMNS))
+    for k in range(count):
+        i = order[k]
+        sorted_bound[k, 0], sorted_bound[k, 1] = centre[0, i], centre[1, i]
+        sorted_bound[k, 2], sorted_bound[k, 3] = centre[2, i], reach[i]
+        sorted_cell[k, 0], sorted_cell[k, 1] = where[0, i], where[1, i]
+        sorted_cell[k, 2], sorted_cell[k, 3] = where[2, i], level[i]
+        for axis in range(3):
+            state[k, START_POSITION + axis] = old_position[axis, i]
+            state[k, END_POSITION + axis] = position[axis, i]
+            state[k, START_VELOCITY + axis] = old_velocity[axis, i]
+            state[k, END_VELOCITY + axis] = velocity[axis, i]
+        state[k, RADIUS] = radius[i]
+    return sorted_bound, sorted_cell, state, used_real, used_whole
+
+
+@numba.njit(error_model='numpy')
+def _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_bound, largest,
+                     low, size, out):
+    """The pairs (k, m) of cell-order rows whose bounding spheres meet, each once, written
+    into out (2, capacity) while they fit; returns how many there are (see detect_contacts
+    for the grid)."""
+    count = sorted_cell.shape[0]
+    capacity = out.shape[1]
+    total = 0
+    for k in range(count):
+        cx, cy_, cz_, reach_i = (sorted_bound[k, 0], sorted_bound[k, 1], sorted_bound[k, 2],
+                                 sorted_bound[k, 3])
+        its_level = sorted_cell[k, 3]
+        for at in range(its_level + 1):
+            if members[at] == 0:
+                continue
+            own = at == its_level
+            if own:
+                # Half the neighbourhood: the rest of this sphere's own cell (sorted after
+                # it) and the next cell along x, then the three rows ahead in y and the
+                # nine in z; each pair is met once, from the sphere met first.
+                x, y, z = sorted_cell[k, 0], sorted_cell[k, 1], sorted_cell[k, 2]
+                x_low, x_high = max(x - 1, 0), min(x + 1, cells[at, 0] - 1)
+                y_low, y_high = y, min(y + 1, cells[at, 1] - 1)
+                z_low, z_high = z, min(z + 1, cells[at, 2] - 1)
+            else:  # a finer level: the cells this sphere's reach and theirs can span
+                span = reach_i + largest[at]
+                x_low = _cell_of(cx - span, low[at, 0], size[at], cells[at, 0])
+                x_high = _cell_of(cx + span, low[at, 0], size[at], cells[at, 0])
+                y_low = _cell_of(cy_ - span, low[at, 1], size[at], cells[at, 1])
+                y_high = _cell_of(cy_ + span, low[at, 1], size[at], cells[at, 1])
+                z_low = _cell_of(cz_ - span, low[at, 2], size[at], cells[at, 2])
+                z_high = _cell_of(cz_ + span, low[at, 2], size[at], cells[at, 2])
+            for cz in range(z_low, z_high + 1):
+                # Own level, the row of z ahead: all nine cells; its own z: y and y + 1.
+                ys = max(y_low - 1, 0) if own and cz > z_low else y_low
+                for cy in range(ys, y_high + 1):
+                    row = first_cell[at] + cells[at, 0] * (cy + cells[at, 1] * cz)
+                    first, last = start[row + x_low], start[row + x_high + 1]
+                    if own and cz == z_low and cy == y_low:
+                        first = k + 1  # its own cell after it, and the next along x
+                    for m in range(first, last):
+                        reach_ij = reach_i + sorted_bound[m, 3]
+                        gap2 = ((cx - sorted_bound[m, 0]) ** 2 + (cy_ - sorted_bound[m, 1]) ** 2
+                                + (cz_ - sorted_bound[m, 2]) ** 2)
+                        # Written whether they meet or not, and kept if they do: no
+                        # branch to mispredict (most do not).
+                        if total < capacity:
+                            out[0, total], out[1, total] = k, m
+                        total += gap2 <= reach_ij * reach_ij
+    return total
+
+
+@numba.njit(error_model='numpy', inline='always')
+def _difference(state, i, j, column):
+    """Row i less row j of state (Contacts.state) in the three columns from column on."""
+    return (state[i, column] - state[j, column], state[i, column + 1] - state[j, column + 1],
+            state[i, column + 2] - state[j, column + 2])
+
+
+@numba.njit(error_model='numpy', inline='always')
+def _narrow_phase(state, i, j, dt):
+    """(normal (3-tuple), excess m/s, added m/s, closing m/s) of the spheres of rows i, j
+    of state (Contacts.state), whose bounding spheres met; see Contacts."""
+    reach = state[i, RADIUS] + state[j, RADIUS]
+    d0 = _difference(state, i, j, START_POSITION)
+    d1 = _difference(state, i, j, END_POSITION)
+    e = (d1[0] - d0[0], d1[1] - d0[1], d1[2] - d0[2])
+    start_gap = d0[0] * d0[0] + d0[1] * d0[1] + d0[2] * d0[2] - reach * reach
+    impact = 0.0  # touching (or overlapping) from the step's start
+    if start_gap > 0.0:
+        a = e[0] * e[0] + e[1] * e[1] + e[2] * e[2]
+        b = d0[0] * e[0] + d0[1] * e[1] + d0[2] * e[2]
+        discriminant = b * b - a * start_gap
+        if b < 0.0 and discriminant >= 0.0:
+            impact = start_gap / (-b + math.sqrt(discriminant))  # the smaller root, stably
+        else:
+            impact = math.inf  # not closing, or passing wide
+    if impact <= 1.0:
+        d = (d0[0] + impact * e[0], d0[1] + impact * e[1], d0[2] + impact * e[2])
+    else:
+        # Apart all step: a contact all the same (speculative), closing no faster than
+        # would shut its gap in the step. Impulses elsewhere in this step can set it
+        # moving toward each other: unseen, a light sphere struck from above was driven
+        # 2 cm into the one below in one step (a column of spheres landing in water). The
+        # broad phase's bounding spheres, which met, bound which pairs these are.
+        end_gap = math.sqrt(d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]) - reach
+        if end_gap <= _TOUCHING * reach:
+            impact = 1.0  # touching at the end (a row of spheres at rest): a contact
+        d = d1
+    length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    if length > 0.0:
+        normal = (d[0] / length, d[1] / length, d[2] / length)
+    else:
+        normal = (0.0, 0.0, 1.0)  # centres at one point: any direction is as good
+    if impact > 1.0:
+        return normal, 0.0, 0.0, (length - reach) / dt
+    w0 = _difference(state, i, j, START_VELOCITY)
+    w1 = _difference(state, i, j, END_VELOCITY)
+    approach_start = -(w0[0] * normal[0] + w0[1] * normal[1] + w0[2] * normal[2])
+    approach_end = -(w1[0] * normal[0] + w1[1] * normal[1] + w1[2] * normal[2])
+    before = max(d0[0] * normal[0] + d0[1] * normal[1] + d0[2] * normal[2] - reach, 0.0)
+    past = max(reach - (d1[0] * normal[0] + d1[1] * normal[1] + d1[2] * normal[2]), 0.0)
+    at_impact = impact_speed(approach_start, approach_end, before, past, dt)
+    return normal, max(approach_end - at_impact, 0.0), approach_end - approach_start, 0.0
+
+
+def overlaps(position, radius):
+    """(pairs (2, m) int64, depth (m,) m) of every pair of spheres that overlap, found by
+    the broad phase: for diagnostics and benchmarks. position: (3, n) m, radius (n,) m."""
+    position = np.ascontiguousarray(position, dtype=float)
+    radius = np.ascontiguousarray(radius, dtype=float)
+    if radius.size < 2:
+        return np.zeros((2, 0), dtype=np.int64), np.zeros(0)
+    still = np.zeros_like(position)
+    pairs = find_contacts(position, still, position, still, radius, 1.0)[0]
+    depth = radius[pairs[0]] + radius[pairs[1]] - np.linalg.norm(
+        position[:, pairs[0]] - position[:, pairs[1]], axis=0)
+    return pairs[:, depth > 0.0], depth[depth > 0.0]
