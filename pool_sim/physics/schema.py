@@ -19,6 +19,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from .contact import ContactParameters
+from .contacts import DEFAULT_SOLVER, SOLVERS
 from .effects import DEFAULT_EFFECTS, EFFECTS
 from .integrators import DEFAULT_INTEGRATOR, INTEGRATORS
 from .spheres import (check_number, check_sphere_name, check_vector, InvalidInput,
@@ -92,6 +93,9 @@ GLOBAL_KEYS = {
                                        f'a subset of {list(EFFECTS)}')),
     'integrator': Key('string', DEFAULT_INTEGRATOR, 'fixed-step integrator',
                       allowed=(lambda v: v in INTEGRATORS, f'one of {list(INTEGRATORS)}')),
+    'contact_solver': Key('string', DEFAULT_SOLVER, 'how sphere-sphere contacts (the '
+                          'collisions effect) are resolved',
+                          allowed=(lambda v: v in SOLVERS, f'one of {sorted(SOLVERS)}')),
     'physics_rate_hz': Key('number', 200.0, 'physics steps per simulated second',
                            *PHYSICS_RATE_RANGE, 'Hz'),
 }

@@ -46,7 +46,8 @@ class Simulation:
             raise InvalidInput("submerged_volume: 'cap' or 'linear', got "
                                f'{shown(submerged_volume)}')
         self.submerged_volume = submerged_volume
-        self.stepper = Stepper(scene['integrator'], scene['effects'], submerged_volume)
+        self.stepper = Stepper(scene['integrator'], scene['effects'], submerged_volume,
+                               scene['contact_solver'])
         self.max_step = 1.0 / scene['physics_rate_hz']
         self.recoveries = 0
         self._recovered = set()  # indices put back, until taken
