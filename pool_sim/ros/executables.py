@@ -57,6 +57,15 @@ def _quiet_once_stopping(unraisable, previous_hook=sys.unraisablehook):
         previous_hook(unraisable)
 
 
+def _quiet_excepthook_once_stopping(kind, value, traceback, previous_hook=sys.excepthook):
+    # C code that prints the error it met and goes on prints through sys.excepthook: numpy's
+    # import_array() in an extension module's init (numpy.linalg._umath_linalg,
+    # numba._dispatcher) runs importlib's Python code, where a pending signal raises Stop,
+    # and PyErr_Print()s it before turning it into an ImportError. Once stopping, noise.
+    if not _stopping:
+        previous_hook(kind, value, traceback)
+
+
 SWITCH_INTERVAL_S = 0.0005
 
 
@@ -90,6 +99,7 @@ def take_signals():
     if _stopping:
         return
     sys.unraisablehook = _quiet_once_stopping
+    sys.excepthook = _quiet_excepthook_once_stopping
     for number in SIGNALS:
         signal.signal(number, _raise_stop)
 
