@@ -60,6 +60,9 @@ BAD_FILES = [
     (section('cork:\n  mass: 1.0e+200'), 'cork.mass'),
     (section('cork:\n  drag_coefficient: 1.0e+308'), 'cork.drag_coefficient'),
     (section('cork:\n  position: [true, false, true]'), 'cork.position'),
+    # rcl's parser refuses these naming a line, not the key: our reader sees them first.
+    (section('cork:\n  position: [1, 0.5, 2]'), 'cork.position'),
+    (section('spheres:\n  position:\n    x: [0.0, 1, 2.0]'), 'spheres.position.x'),
     (section('cork:\n  position: [0.0, 0.0, 3.95]'), 'cork.position'),
     (section('cork:\n  position: [9.0, 0.0, 0.0]'), 'cork.position'),
     ('42\n', 'bad.yaml'),

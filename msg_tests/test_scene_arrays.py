@@ -155,7 +155,7 @@ def test_a_params_file_may_give_the_spheres_as_arrays(tmp_path):
         '    spheres:\n'
         '      mass: [8.3776, 32.882, 12.964]\n'
         '      radius: [0.2, 0.1, 0.15]\n'
-        '      position: [-2.0, 0.0, 3.7, 0, 0, 3.8, 2.0, 0.0, 3.75]\n'
+        '      position: [-2.0, 0.0, 3.7, 0.0, 0.0, 3.8, 2.0, 0.0, 3.75]\n'
         '    ice:\n'
         '      drag_coefficient: 0.3\n'
         '    effects: [gravity, buoyancy, drag, wave_radiation, contact, friction]\n'

@@ -18,12 +18,12 @@ from pathlib import Path
 import re
 
 import numpy as np
-import yaml
 
 from .contact import ContactParameters
 from .effects import DEFAULT_EFFECTS, EFFECTS
 from .integrators import DEFAULT_INTEGRATOR, INTEGRATORS
 from .media import Environment, Medium, Pool
+from .params_file import applying_parameters, read_params_document, sets_nothing_reason
 from .spheres import (check_number, check_sphere_name, check_vector, InvalidInput,
                       LIFT_AREA_RANGE_M2, LIFT_SLOPE, MASS_RANGE_KG, NAME_MAX_CHARACTERS,
                       NAME_TOKEN, named_few, RADIUS_RANGE_M, shortened, shown, Spheres,
@@ -252,23 +252,6 @@ def flatten(params: dict, prefix: str = '') -> dict:
         else:
             flat[f'{prefix}{name}'] = value
     return flat
-
-
-def read_params_document(path) -> dict:
-    """A ROS params file as a mapping (node name -> {ros__parameters: ...}), or
-    InvalidInput naming the file and what is wrong with it."""
-    try:
-        with open(path, encoding='utf-8') as stream:
-            # libyaml's loader where PyYAML has it: 100 000 spheres in 1 s, not 18.
-            document = yaml.load(stream, Loader=getattr(yaml, 'CSafeLoader', yaml.SafeLoader))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as error:
-        first_line = (str(error).splitlines() or [type(error).__name__])[0]
-        raise InvalidInput(f'{path}: cannot read it as YAML: {first_line}') from None
-    document = {} if document is None else document
-    if not isinstance(document, dict):
-        raise InvalidInput(f'{path}: expected a mapping of node names to ros__parameters, '
-                           f'got {shown(document)}')
-    return document
 
 
 def check_sphere_names(value) -> tuple:
@@ -507,23 +490,19 @@ class Scene:
         return self._arrays[key].copy()
 
     @classmethod
-    def from_yaml(cls, path, node_name: str = NODE_NAME) -> 'Scene':
-        """Read the `ros__parameters` for `node_name` from a ROS params file: the sections
-        `/**`, `/**/<node_name>`, `<node_name>` and `/<node_name>`, later ones winning."""
+    def from_yaml(cls, path, node_name: str = NODE_NAME, namespace: str = '/') -> 'Scene':
+        """Read the `ros__parameters` that a ROS params file gives the node `node_name` in
+        `namespace`, as rclpy matches sections (`/**`, `/**/<node_name>`, `<node_name>`,
+        ...; see params_file), later sections winning. InvalidInput when the file sets
+        nothing for that node."""
         document = read_params_document(path)
+        node_fqn = f'{namespace.rstrip("/")}/{node_name}'
         params = {}
-        for section in ('/**', f'/**/{node_name}', node_name, f'/{node_name}'):
-            entry = document.get(section)
-            if entry is None:
-                continue
-            if not isinstance(entry, dict) or 'ros__parameters' not in entry:
-                raise InvalidInput(f'{section}: expected a ros__parameters mapping')
-            parameters = entry['ros__parameters']  # empty in the file: None
-            if not isinstance(parameters, (dict, type(None))):
-                raise InvalidInput(f'{section}: expected a ros__parameters mapping')
-            params.update(flatten(parameters or {}))
+        for _, parameters in applying_parameters(document, node_fqn):
+            params.update(flatten(parameters))
         if not params:
-            raise InvalidInput(f'{path}: no ros__parameters for node {node_name!r}')
+            raise InvalidInput(sets_nothing_reason(path, node_fqn)
+                               or f'{path}: no ros__parameters for node {node_fqn}')
         return cls(params)
 
     @classmethod

@@ -149,6 +149,7 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
             raise refused(str(error).splitlines()[0]) from None
         stop_if_asked()
         node = make_node()
+        say_which_params_files_set_nothing(node, sys.argv if args is None else args)
         # Everything built so far lives as long as the node: out of the collector's full
         # passes, which walked it all (tens of ms at thousands of spheres) while the clock
         # thread waited.
@@ -191,6 +192,18 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
         rclpy.try_shutdown()
         faulthandler.cancel_dump_traceback_later()
     return code
+
+
+def say_which_params_files_set_nothing(node, argv):
+    """A warning for each --params-file in argv that sets nothing for this node: empty, or
+    none of its sections applies to the node's name and namespace (rclpy passes it over in
+    silence, and the node would run on its defaults)."""
+    from pool_sim.physics.params_file import sets_nothing_reason
+    from pool_sim.ros.parameters import params_files
+    for path in params_files(argv):
+        reason = sets_nothing_reason(path, node.get_fully_qualified_name())
+        if reason is not None:
+            node.get_logger().warning(reason)
 
 
 def _quiet_stream():
