@@ -35,7 +35,7 @@ def finish(process, timeout_s=30.0):
 
 
 def section(parameters: str) -> str:
-    return '/**/pool_sim:\n  ros__parameters:\n' + ''.join(
+    return '/**:\n  ros__parameters:\n' + ''.join(
         f'    {line}\n' for line in parameters.splitlines())
 
 

@@ -149,7 +149,7 @@ def test_a_scene_of_no_spheres_takes_empty_arrays():
 def test_a_params_file_may_give_the_spheres_as_arrays(tmp_path):
     path = tmp_path / 'arrays.yaml'
     path.write_text(
-        '/**/pool_sim:\n'
+        '/**:\n'
         '  ros__parameters:\n'
         '    sphere_names: [cork, steel, ice]\n'
         '    spheres:\n'
