@@ -219,6 +219,9 @@ def _run(module_name):
     stops, and a signal there would kill the process instead."""
     take_signals()
     try:
+        if sys.flags.no_site:  # `python -S` (as dev.sh starts it): site's work comes now
+            import site
+            site.main()
         code = importlib.import_module(module_name).main()
     except BaseException:
         if not _stopping:
