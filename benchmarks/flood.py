@@ -30,7 +30,7 @@ RATE_HZ = 1000.0
 
 
 def params_file(path):
-    lines = ['/**/pool_sim:', '  ros__parameters:', f'    sphere_names: [{", ".join(SPHERES)}]',
+    lines = ['/**:', '  ros__parameters:', f'    sphere_names: [{", ".join(SPHERES)}]',
              '    real_time_factor: 1.0']
     for i, name in enumerate(SPHERES):
         lines.append(f'    {name}: {{mass: 2.0, radius: 0.1, position: [{i - 1.5}, 0.0, -1.0]}}')

@@ -37,7 +37,7 @@ def spheres_params_file(count, path, collisions=False):
     """A params file with `count` spheres scattered through the pool's air and water;
     collisions: the default effects and `collisions`."""
     rng = np.random.default_rng(count)
-    lines = ['/**/pool_sim:', '  ros__parameters:',
+    lines = ['/**:', '  ros__parameters:',
              f'    sphere_names: [{", ".join(f"s{i}" for i in range(count))}]']
     if collisions:
         lines.append('    effects: [gravity, buoyancy, drag, wave_radiation, contact, friction, '

@@ -50,7 +50,7 @@ def params_file(count, per_sphere_topics, path):
         return '[' + ', '.join(f'{v:.6e}' for v in np.ravel(values)) + ']'  # all doubles
     names = ', '.join(f's{i}' for i in range(count))
     path.write_text(
-        '/**/pool_sim:\n  ros__parameters:\n'
+        '/**:\n  ros__parameters:\n'
         f'    sphere_names: [{names}]\n'
         f'    per_sphere_topics: {"true" if per_sphere_topics else "false"}\n'
         f'    spheres:\n      mass: {numbers(mass)}\n      radius: {numbers(radius)}\n'

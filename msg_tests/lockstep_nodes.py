@@ -21,7 +21,7 @@ from pool_sim.testing import make_executor
 REPO = Path(__file__).resolve().parents[1]
 # The default pool in lockstep with depth_keeper (ice) and a Recorder (cork), as a params
 # file: the loop compared in-process and across processes.
-LOCKSTEP_PARAMS = '''/**/pool_sim:
+LOCKSTEP_PARAMS = '''/**:
   ros__parameters:
     lockstep: true
     lockstep_inputs: [ice, cork]

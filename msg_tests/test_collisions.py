@@ -413,7 +413,7 @@ def test_headless_runs_a_params_file_that_lists_collisions(tmp_path, capsys):
     from pool_sim import headless
     params = tmp_path / 'stack.yaml'
     params.write_text('\n'.join([
-        '/**/pool_sim:', '  ros__parameters:', '    sphere_names: [low, high]',
+        '/**:', '  ros__parameters:', '    sphere_names: [low, high]',
         '    effects: [gravity, buoyancy, drag, wave_radiation, contact, friction, collisions]',
         '    low: {mass: 32.9, radius: 0.1, position: [0.0, 0.0, -3.9]}',
         '    high: {mass: 32.9, radius: 0.1, position: [0.0, 0.0, -2.0]}']) + '\n')

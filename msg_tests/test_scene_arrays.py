@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pool_sim.physics import InvalidInput, Scene, Simulation, stepper
-from pool_sim.physics.scene import GLOBAL_KEYS, SPHERE_KEYS
+from pool_sim.physics.schema import GLOBAL_KEYS, SPHERE_KEYS
 from pool_sim.physics.spheres import LIFT_AREA_RANGE_M2
 
 SETTINGS = settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -149,13 +149,13 @@ def test_a_scene_of_no_spheres_takes_empty_arrays():
 def test_a_params_file_may_give_the_spheres_as_arrays(tmp_path):
     path = tmp_path / 'arrays.yaml'
     path.write_text(
-        '/**/pool_sim:\n'
+        '/**:\n'
         '  ros__parameters:\n'
         '    sphere_names: [cork, steel, ice]\n'
         '    spheres:\n'
         '      mass: [8.3776, 32.882, 12.964]\n'
         '      radius: [0.2, 0.1, 0.15]\n'
-        '      position: [-2.0, 0.0, 3.7, 0, 0, 3.8, 2.0, 0.0, 3.75]\n'
+        '      position: [-2.0, 0.0, 3.7, 0.0, 0.0, 3.8, 2.0, 0.0, 3.75]\n'
         '    ice:\n'
         '      drag_coefficient: 0.3\n'
         '    effects: [gravity, buoyancy, drag, wave_radiation, contact, friction]\n'

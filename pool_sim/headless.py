@@ -3,8 +3,9 @@
     python -m pool_sim.headless [params.yaml] [--seconds 20] [--every 1]
 """
 import argparse
+import sys
 
-from pool_sim.physics import Scene, Simulation
+from pool_sim.physics import InvalidInput, Scene, Simulation
 from pool_sim.ros.node_keys import NODE_SCENE
 
 
@@ -14,9 +15,13 @@ def main(argv=None):
     parser.add_argument('--seconds', type=float, default=20.0, help='simulated time, s')
     parser.add_argument('--every', type=float, default=1.0, help='table row interval, s')
     args = parser.parse_args(argv)
-    # A params file written for the node: its keys are checked, the node's read by none.
-    scene = (Scene.from_yaml(args.params_file, extension=NODE_SCENE) if args.params_file
-             else Scene.default())
+    try:
+        # A params file written for the node: its keys are checked, the node's read by none.
+        scene = (Scene.from_yaml(args.params_file, extension=NODE_SCENE) if args.params_file
+                 else Scene.default())
+    except InvalidInput as error:  # as the node refuses a params file: one line, exit 1
+        print(f'pool_sim.headless: refusing to start: {error}', file=sys.stderr)
+        return 1
     sim = Simulation(scene)
     names = sim.spheres.names
     print('   t [s] ' + ''.join(f'| {n:>8} z [m]  vz [m/s] ' for n in names))
@@ -26,7 +31,8 @@ def main(argv=None):
         cells = ''.join(f'| {z:>15.3f} {vz:>9.3f} ' for z, vz in zip(
             sim.spheres.position[2], sim.spheres.velocity[2]))
         print(f'{sim.time:8.2f} {cells}')
+    return 0
 
 
 if __name__ == '__main__':
-    main()
+    sys.exit(main())

@@ -144,10 +144,11 @@ class Scene:
         return self._arrays[key].copy()
 
     @classmethod
-    def from_yaml(cls, path, node_name: str = NODE_NAME,
+    def from_yaml(cls, path, node_name: str = NODE_NAME, namespace: str = '/',
                   extension: SceneExtension = NO_EXTENSION) -> 'Scene':
-        """The `ros__parameters` for `node_name` in a ROS params file (params_file.py)."""
-        return cls(ros_parameters(path, node_name), extension=extension)
+        """The `ros__parameters` a ROS params file gives the node `node_name` in `namespace`,
+        as rclpy matches sections (params_file.py)."""
+        return cls(ros_parameters(path, node_name, namespace), extension=extension)
 
     @classmethod
     def default(cls, extension: SceneExtension = NO_EXTENSION) -> 'Scene':

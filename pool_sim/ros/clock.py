@@ -26,7 +26,7 @@ TICK_BUDGET_S = 0.02
 # real_time_factor does not owe more than the catch-up bound at once; never shorter, so a
 # huge real_time_factor does not spin for nothing.
 TICK_PERIOD_RANGE_S = (0.001, 0.05)
-# Wall time the node may fall behind and still catch up (then it drops the backlog).
+# Wall time the node may stay behind after a tick's budget (then it drops the rest).
 MAX_BACKLOG_WALL_S = 0.1
 # Wall seconds between the status lines in the log.
 STATUS_PERIOD_S = 5.0
@@ -141,13 +141,10 @@ class SimulationClock:
         steps_before = self.steps_taken
         deadline = now + TICK_BUDGET_S
         if self.real_time_factor > 0:
-            limit = max(2.0 * dt, MAX_BACKLOG_WALL_S * self.real_time_factor)
-            owed = self.backlog_s + elapsed * self.real_time_factor
-            self.backlog_s = min(owed, limit)
-            self.given_up_s += owed - self.backlog_s
-            # Bounded by the budget too: a real_time_factor the machine cannot reach leaves
-            # the rest owed (then given up at the bound), never a tick that blocks services.
-            # In lockstep a publish ends the tick's steps (going_on is False then).
+            self.backlog_s += elapsed * self.real_time_factor
+            # Bounded by the budget: a real_time_factor the machine cannot reach leaves the
+            # rest owed, never a tick that blocks services. In lockstep a publish ends the
+            # tick's steps (going_on is False then).
             going_on = True
             while self.backlog_s >= dt * (1.0 - 1e-9) and time.monotonic() < deadline:
                 owed_steps = max(int(self.backlog_s / dt * (1.0 + 1e-9)), 1)
@@ -155,6 +152,12 @@ class SimulationClock:
                 self.backlog_s -= taken * dt
                 if not going_on:
                     break
+            # What the budget left owed beyond the catch-up bound is given up: a tick that
+            # came late (the thread held up by a full collection, a busy core, a long
+            # request) makes up its lateness within its budget and gives up nothing.
+            limit = max(2.0 * dt, MAX_BACKLOG_WALL_S * self.real_time_factor)
+            self.given_up_s += max(self.backlog_s - limit, 0.0)
+            self.backlog_s = min(self.backlog_s, limit)
             behind = going_on and self.backlog_s >= dt * (1.0 - 1e-9)
         else:
             behind = False  # as fast as it can: every tick is

@@ -57,6 +57,15 @@ def _quiet_once_stopping(unraisable, previous_hook=sys.unraisablehook):
         previous_hook(unraisable)
 
 
+def _quiet_excepthook_once_stopping(kind, value, traceback, previous_hook=sys.excepthook):
+    # C code that prints the error it met and goes on prints through sys.excepthook: numpy's
+    # import_array() in an extension module's init (numpy.linalg._umath_linalg,
+    # numba._dispatcher) runs importlib's Python code, where a pending signal raises Stop,
+    # and PyErr_Print()s it before turning it into an ImportError. Once stopping, noise.
+    if not _stopping:
+        previous_hook(kind, value, traceback)
+
+
 SWITCH_INTERVAL_S = 0.0005
 
 
@@ -90,6 +99,7 @@ def take_signals():
     if _stopping:
         return
     sys.unraisablehook = _quiet_once_stopping
+    sys.excepthook = _quiet_excepthook_once_stopping
     for number in SIGNALS:
         signal.signal(number, _raise_stop)
 
@@ -139,6 +149,7 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
             raise refused(str(error).splitlines()[0]) from None
         stop_if_asked()
         node = make_node()
+        say_which_params_files_set_nothing(node, sys.argv if args is None else args)
         # Everything built so far lives as long as the node: out of the collector's full
         # passes, which walked it all (tens of ms at thousands of spheres) while the clock
         # thread waited.
@@ -183,6 +194,18 @@ def run_node(name, make_node, refused, args=None, check_arguments=None):
     return code
 
 
+def say_which_params_files_set_nothing(node, argv):
+    """A warning for each --params-file in argv that sets nothing for this node: empty, or
+    none of its sections applies to the node's name and namespace (rclpy passes it over in
+    silence, and the node would run on its defaults)."""
+    from pool_sim.physics.params_file import sets_nothing_reason
+    from pool_sim.ros.parameters import params_files
+    for path in params_files(argv):
+        reason = sets_nothing_reason(path, node.get_fully_qualified_name())
+        if reason is not None:
+            node.get_logger().warning(reason)
+
+
 def _quiet_stream():
     global _devnull
     if _devnull is None:
@@ -196,6 +219,9 @@ def _run(module_name):
     stops, and a signal there would kill the process instead."""
     take_signals()
     try:
+        if sys.flags.no_site:  # `python -S` (as dev.sh starts it): site's work comes now
+            import site
+            site.main()
         code = importlib.import_module(module_name).main()
     except BaseException:
         if not _stopping:

@@ -91,18 +91,6 @@ def _cell_of(coordinate, origin, size, cells):
 
 @numba.njit(error_model='numpy')
 def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
-    """detect_contacts with arrays of its own (for tests and diagnostics): its first five
-    results, the pairs as sphere indices (not rows of its state)."""
-    none = np.empty(0), np.empty(0, dtype=np.int64)
-    rows, normals, excess, added, closing, order, _, _, _ = detect_contacts(
-        old_position, old_velocity, position, velocity, radius, dt, none[0], none[1])
-    pairs = np.empty_like(rows)
-    for c in range(rows.shape[1]):
-        pairs[0, c], pairs[1, c] = order[rows[0, c]], order[rows[1, c]]
-    return pairs, normals, excess, added, closing
-
-@numba.njit(error_model='numpy')
-def find_contacts(old_position, old_velocity, position, velocity, radius, dt):
     """detect_contacts with arrays of its own (for tests and diagnostics): (pairs (2, m) as
     sphere indices, not rows of its state; normal, excess, added, closing)."""
     none = np.empty(0), np.empty(0, dtype=np.int64)
