@@ -70,7 +70,8 @@ def resident_bytes(pid):
 CORE_ONLY = '''
 import sys
 from pool_sim.physics import Scene, Simulation
-sim = Simulation(Scene.from_yaml(sys.argv[1]))
+from pool_sim.ros.node_keys import NODE_SCENE
+sim = Simulation(Scene.from_yaml(sys.argv[1], extension=NODE_SCENE))
 for _ in range(10):
     sim.step()
 with open('/proc/self/status') as status:

@@ -144,7 +144,8 @@ class Simulation:
         return self.spheres.check_change(name, key, value, self.environment.pool)
 
     def apply_change(self, change):
-        """Write a change check_change accepted (before any spawn or remove since)."""
+        """Write a change check_change accepted; its index is the sphere's in the spheres
+        now (after a spawn or remove, give it the sphere's new index)."""
         self.spheres.apply_change(change, self.environment.pool)
 
     def set_mass(self, name, mass_kg):

@@ -30,9 +30,10 @@ TICK_PERIOD_RANGE_S = (0.001, 0.05)
 MAX_BACKLOG_WALL_S = 0.1
 # Wall seconds between the status lines in the log.
 STATUS_PERIOD_S = 5.0
-# A state that has not gone out for this long (wall s: paused, or a real_time_factor so
-# small that the next instant is far off) goes out again, for subscribers that joined
-# meanwhile asking for volatile durability, and to odometry subscribers that are new.
+# A state that has not gone out for this long (wall s) while time stood still (paused, or
+# a real_time_factor so small that no step is owed yet) goes out again, for subscribers
+# that joined meanwhile asking for volatile durability, and to odometry subscribers that
+# are new.
 QUIET_REPUBLISH_S = 1.0
 
 
@@ -170,12 +171,16 @@ class SimulationClock:
         return behind
 
     def _republish_if_quiet(self):
-        """The present state again, when none went out for QUIET_REPUBLISH_S: while paused,
-        and at a pace so slow that the next instant is far off (real_time_factor 1e-12).
-        Never while lockstep awaits answers to it: lockstep sends its own copies."""
-        quiet = time.monotonic() - self.publishing.last_publish_wall >= QUIET_REPUBLISH_S
-        if quiet and (self.paused or self.lockstep.awaited_ns is None):
-            self.publishing.publish_state(new_listeners=True)
+        """The instant published last again, when it went out QUIET_REPUBLISH_S ago and
+        time has not moved since: while paused (as always), and at a pace so slow that no
+        step is owed yet (real_time_factor 1e-12). Never a state between two instants, and
+        in lockstep only while paused: lockstep sends its own copies of what it awaits."""
+        publishing = self.publishing
+        if time.monotonic() - publishing.last_publish_wall < QUIET_REPUBLISH_S:
+            return
+        still = publishing.last_instant_s == self.node.simulation.time
+        if self.paused or (still and not self.lockstep.enabled):
+            publishing.publish_state(new_listeners=True)
 
     def advance(self) -> bool:
         """Step to the next publish instant and publish it (with /clock), whether paused or

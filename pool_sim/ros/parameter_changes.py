@@ -74,7 +74,7 @@ class ParameterChanges:
                   and f'{ARRAY_PREFIX}lift_area' not in given
                   and 'sphere_names' not in given and len(value) == spheres.count):
                 radius = np.clip(np.asarray(value, dtype=float), *RADIUS_RANGE_M)
-                area = np.where(spheres.lift_area_follows_radius, math.pi * radius**2,
+                area = np.where(spheres.lift_area_follows_radius, math.pi * radius * radius,
                                 spheres.lift_area)
                 extra.append(Parameter(f'{ARRAY_PREFIX}lift_area', value=area.tolist()))
         # The parameter table shows them; the core's radius change moves a following area
@@ -120,24 +120,26 @@ class ParameterChanges:
     # -- the world services' way in ----------------------------------------------------------
 
     def set_checked(self, live):
-        """Apply [(sphere, CheckedChange)] the core checked just now (~/set_mass,
+        """Apply [(sphere, CheckedChange)] of one key the core checked just now (~/set_mass,
         ~/set_radius), under the node's lock, and show the new values in the parameter
-        table (a following lift area too), with the ParameterEvent of it."""
+        table with one ParameterEvent, as a set_parameters request of them would: each name
+        once, the key's entries in request order, then the lift areas that follow a radius.
+        rclpy's set path (and any other hook on it) is not run: the core's check is the one
+        check."""
         self._apply_live(live)
         spheres = self.node.simulation.spheres
-        if self.node.per_sphere:
-            shown = []
-            for sphere, change in live:
-                i = change.index
-                shown.append((f'{sphere}.{change.key}', float(getattr(spheres, change.key)[i])))
-                if change.key == 'radius' and spheres.lift_area_follows_radius[i]:
-                    shown.append((f'{sphere}.lift_area', float(spheres.lift_area[i])))
-        else:
-            keys = {change.key for _, change in live}
-            keys |= {'lift_area'} if 'radius' in keys else set()  # it may follow the radius
-            shown = [(f'{ARRAY_PREFIX}{key}', doubles(getattr(spheres, key)))
-                     for key in sorted(keys)]
-        retable(self.node, changed=shown)
+        shown, areas = {}, {}
+        for sphere, change in live:
+            key, i = change.key, change.index
+            if not self.node.per_sphere:
+                shown[f'{ARRAY_PREFIX}{key}'] = doubles(getattr(spheres, key))
+                if key == 'radius':  # it may follow the radius
+                    areas[f'{ARRAY_PREFIX}lift_area'] = doubles(spheres.lift_area)
+                continue
+            shown[f'{sphere}.{key}'] = float(getattr(spheres, key)[i])
+            if key == 'radius' and spheres.lift_area_follows_radius[i]:
+                areas[f'{sphere}.lift_area'] = float(spheres.lift_area[i])
+        retable(self.node, changed=list(shown.items()) + list(areas.items()))
 
     def show_initial_values(self, before):
         """After a reset: the parameters of what a live change had moved show the initial

@@ -93,7 +93,8 @@ def _live_array_changes(node, name, value, values):
         radius = values.get(f'{ARRAY_PREFIX}radius')
         radius = (spheres.radius if radius is None
                   else as_rows(f'{ARRAY_PREFIX}radius', radius, spheres.count))
-        current = np.where(spheres.lift_area_follows_radius, np.pi * radius**2, current)
+        # pi r r, as the core computes a following area: a dump loaded back is no change.
+        current = np.where(spheres.lift_area_follows_radius, np.pi * radius * radius, current)
     changed = np.flatnonzero(~(rows == current))  # NaN counts as changed
     return [(spheres.names[i], node.simulation.check_change(spheres.names[i], key,
                                                             float(rows[i])))

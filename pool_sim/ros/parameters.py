@@ -25,15 +25,14 @@ from rclpy.parameter import Parameter
 from pool_sim.physics.scene import Scene
 from pool_sim.physics.schema import (check_some_sphere_names, COMPONENTS, GLOBAL_KEYS,
                                      SPHERE_KEYS)
-from pool_sim.physics.spheres import range_words
+from pool_sim.physics.spheres import LIVE_KEYS as LIVE_SPHERE_KEYS, range_words
 from pool_sim.ros.node_keys import (LOCKSTEP_KEYS, NODE_KEYS, NODE_SCENE, RESERVED_NAMES,
                                     ROS_OWN_PARAMETERS)
 
 # Every global key of the node's scene: the physics' and the node's own.
 SCENE_KEYS = {**GLOBAL_KEYS, **NODE_KEYS}
-# What may change while the node runs: these per-sphere keys, sphere_names (spawn and
+# What may change while the node runs: the per-sphere LIVE_SPHERE_KEYS, sphere_names (spawn and
 # remove, with the new spheres' keys in the same request), and the lockstep settings.
-LIVE_SPHERE_KEYS = ('mass', 'radius', 'lift_area')
 LIVE_GLOBAL_KEYS = ('sphere_names',) + LOCKSTEP_KEYS
 ARRAY_PREFIX = 'spheres.'
 

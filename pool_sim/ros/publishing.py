@@ -54,19 +54,23 @@ class StatePublishing:
         self.scene_markers = node.create_publisher(MarkerArray, '~/scene_markers', STATE_QOS)
         self.odometry = {}  # sphere name -> its Odometry publisher
         self.add_spheres(scene.sphere_names)
-        self.odometry_sender = OdometrySender(node.get_logger())
         self.clock = (node.create_publisher(ClockMessage, '/clock', 10)
                       if scene['publish_clock'] else None)
         self.listeners = []
         self.publishes = 0  # instants published, across resets
         self.last_publish_wall = time.monotonic()  # when the state last went out
+        self.last_instant_s = None  # the simulated time it carried
         # Wall seconds spent filling messages and sending them, for the status line.
         self.time_spent = {'build': 0.0, 'publish': 0.0}
         self.next_listener_check, self.odometry_wanted = 0.0, []
+        # Last: a thread of its own, which destroy() stops once the node has this object.
+        self.odometry_sender = OdometrySender(node.get_logger())
 
     def listen(self, listener):
-        """Call listener(Published) after each instant is out, on the thread publishing it
-        (the clock's, or a service's), under the node's lock: keep it short."""
+        """Call listener(Published) after each publish, on the thread publishing it (the
+        clock's, or a service's), under the node's lock: keep it short. A state instant
+        carries the state topics (and odometry where sent); /clock comes as a Published of
+        its own. A state sent again (a republish for late subscribers) is heard again."""
         self.listeners.append(listener)
 
     def destroy(self):
@@ -151,7 +155,7 @@ class StatePublishing:
         self.time_spent['build'] += built - started
         self.time_spent['publish'] += time.perf_counter() - built
         self.publishes += 1
-        self.last_publish_wall = time.monotonic()
+        self.last_publish_wall, self.last_instant_s = time.monotonic(), simulation.time
         self._tell(Published(simulation.time, instant_ns, tuple(
             [(publisher.topic_name, kind, data) for publisher, kind, data in sent]
             + [(publisher.topic_name, Odometry, data) for publisher, data in odometry])))
