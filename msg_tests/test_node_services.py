@@ -180,7 +180,7 @@ def test_a_wrench_waiting_for_the_next_tick_does_not_outlive_a_reset():
     with Harness({'real_time_factor': 1.0, 'publish_rate_hz': 1.0}) as ros:
         message = Wrench()
         message.force.x = 5.0
-        ros.sim.inputs._put('cork', message)  # as the cork/wrench subscription hands it over
+        ros.sim.inputs._put_wrench('cork', '/pool_sim/cork/wrench', message)  # as cork/wrench does
         assert ros.call(Trigger, 'reset', Trigger.Request()).success
         ros.spin_for(1.5)
         assert ros.sim.simulation.time > 0.0

@@ -23,13 +23,14 @@ from .contacts import DEFAULT_SOLVER, SOLVERS
 from .effects import DEFAULT_EFFECTS, EFFECTS
 from .integrators import DEFAULT_INTEGRATOR, INTEGRATORS
 from .spheres import (check_number, check_sphere_name, check_vector, InvalidInput,
+                      range_words,
                       LIFT_AREA_RANGE_M2, LIFT_SLOPE, MASS_RANGE_KG, NAME_MAX_CHARACTERS,
                       NAME_TOKEN, named_few, RADIUS_RANGE_M, shown, STALL_ANGLE)
 
 
 @dataclass(frozen=True)
 class Key:
-    """One parameter: its kind ('number', 'vector', 'string', 'strings', 'bool'), default,
+    """One parameter: its kind ('number', 'integer', 'vector', 'string', 'strings', 'bool'), default,
     a description with its unit, the inclusive range [low, high] of a number or of each
     component of a vector (every one has both ends; None for the other kinds), and for the
     other kinds a check (a predicate and the words for what is allowed; a per-sphere key's
@@ -193,10 +194,23 @@ def join_components(params: dict) -> dict:
     return params
 
 
+def check_integer(name: str, value, low, high, unit='') -> int:
+    """A Python int within [low, high], or InvalidInput naming `name` (a port is no
+    decimal: 8765.0 is refused as rclpy's integer parameters refuse a double)."""
+    if not isinstance(value, (int, np.integer)) or isinstance(value, (bool, np.bool_)):
+        raise InvalidInput(f'{name}: expected an integer, got {type(value).__name__} '
+                           f'{shown(value)}')
+    if not low <= value <= high:
+        raise InvalidInput(f'{name}: must be {range_words(low, high, unit)}, got {shown(value)}')
+    return int(value)
+
+
 def check_value(name: str, key: Key, value):
     """The value in its canonical Python type, or InvalidInput naming `name`."""
     if key.kind == 'number':
         value = check_number(name, value, key.low, key.high, key.unit)
+    elif key.kind == 'integer':
+        value = check_integer(name, value, key.low, key.high, key.unit)
     elif key.kind == 'vector':
         value = tuple(check_vector(name, value, key.low, key.high, key.unit).tolist())
     elif key.kind == 'string':

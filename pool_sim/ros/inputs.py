@@ -19,6 +19,7 @@ recorded, whatever frame_ids a client sends.
 from functools import partial
 import math
 import threading
+from typing import NamedTuple
 
 import numpy as np
 from geometry_msgs.msg import Wrench, WrenchStamped
@@ -27,9 +28,24 @@ from std_msgs.msg import Float64MultiArray
 
 from pool_sim.physics import InvalidInput
 from pool_sim.physics.spheres import shortened
+from pool_sim.ros.messages import stamp_nanoseconds
 from pool_sim.ros.node_keys import FORCES_INPUT
 from pool_sim.ros.services import THROTTLE_S
 ALL_SPHERES = object()  # the pending key of a ~/forces array
+
+
+class Applied(NamedTuple):
+    """An input the node applied, as its listeners hear it."""
+    received_ns: int  # when it came, in ns of simulated time (the simulation's time then)
+    topic: str  # the fully qualified topic it came on
+    message_type: type
+    message: object  # the message as received (read it, never change it)
+
+
+class Pending(NamedTuple):
+    """An input waiting for the next tick."""
+    value: object  # what is applied: a Wrench, or the ~/forces Float64MultiArray
+    received: Applied
 
 
 class ForceInputs:
@@ -53,10 +69,13 @@ class ForceInputs:
         # Per-sphere topics without rclpy's default QoS-event handlers: each would be one
         # more waitable the executor walks on every wake-up.
         self.no_default_events = SubscriptionEventCallbacks(use_default_callbacks=False)
-        node.create_subscription(WrenchStamped, '~/wrench', self._put_stamped, 100,
-                                 event_callbacks=self.no_default_events)
-        node.create_subscription(Float64MultiArray, '~/forces', self._put_forces, 10,
-                                 event_callbacks=self.no_default_events)
+        self.listeners = []
+        self.wrench_topic = node.create_subscription(
+            WrenchStamped, '~/wrench', self._put_stamped, 100,
+            event_callbacks=self.no_default_events).topic_name
+        self.forces_topic = node.create_subscription(
+            Float64MultiArray, '~/forces', self._put_forces, 10,
+            event_callbacks=self.no_default_events).topic_name
         self.per_sphere_topics = per_sphere_topics
         self.per_sphere = {}
         # The wrench clock: when each sphere's force was last set (simulated s), in sphere
@@ -73,7 +92,9 @@ class ForceInputs:
             return
         for name in names:
             self.per_sphere[name] = self.node.create_subscription(
-                Wrench, f'~/{name}/wrench', partial(self._put, name), 10,
+                Wrench, f'~/{name}/wrench',
+                partial(self._put_wrench, name, self.node.resolve_topic_name(f'~/{name}/wrench')),
+                10,
                 event_callbacks=self.no_default_events)
 
     def remove_spheres(self, names):
@@ -89,12 +110,18 @@ class ForceInputs:
             if subscription is not None:
                 self.node.destroy_subscription(subscription)
 
-    def _put(self, key, message, stamp_ns=None):
+    def listen(self, listener):
+        """Call listener(Applied) for each input applied, on the clock's thread at the tick
+        that applies it, under the node's lock: keep it short. A message replaced by a newer
+        one before the tick was never applied and is not heard; a refused one neither."""
+        self.listeners.append(listener)
+
+    def _put(self, key, value, received, stamp_ns=None):
         answering = FORCES_INPUT if key is ALL_SPHERES else key
         with self.lock:
             known = key is ALL_SPHERES or key in self.spheres
             self.pending.pop(key, None)  # re-inserted last: applied in arrival order
-            self.pending[key] = message
+            self.pending[key] = Pending(value, received)
             future = stamp_ns is not None and stamp_ns > self.instant_ns
             if known and not future:
                 if stamp_ns is None:
@@ -112,13 +139,23 @@ class ForceInputs:
         if self.on_answer is not None:
             self.on_answer()
 
+    def _received(self, topic, message_type, message) -> Applied:
+        # Read without the node's lock: a float read whole, at most one tick stale.
+        return Applied(stamp_nanoseconds(self.node.simulation.time), topic, message_type,
+                       message)
+
     def _put_stamped(self, message):
         stamp = message.header.stamp
         self._put(message.header.frame_id, message.wrench,
+                  self._received(self.wrench_topic, WrenchStamped, message),
                   stamp.sec * 1_000_000_000 + stamp.nanosec)
 
+    def _put_wrench(self, name, topic, message):
+        self._put(name, message, self._received(topic, Wrench, message))
+
     def _put_forces(self, message):
-        self._put(ALL_SPHERES, message)
+        self._put(ALL_SPHERES, message,
+                  self._received(self.forces_topic, Float64MultiArray, message))
 
     def clear(self):
         """Forget what waits, what was answered and when forces were set (a reset: time
@@ -158,11 +195,14 @@ class ForceInputs:
         the wrench clock of each sphere it set."""
         with self.lock:
             pending, self.pending = self.pending, {}
-        for key, message in pending.items():
+        for key, (value, received) in pending.items():
             if key is ALL_SPHERES:
-                self._apply_forces(simulation, message)
+                applied = self._apply_forces(simulation, value)
             else:
-                self._apply_wrench(simulation, key, message)
+                applied = self._apply_wrench(simulation, key, value)
+            if applied:
+                for listener in self.listeners:
+                    listener(received)
 
     def set_force(self, simulation, sphere, force):
         """Push a sphere (N, world axes) as an input message does: InvalidInput if the core
@@ -200,20 +240,22 @@ class ForceInputs:
             self.set_force(simulation, name, force)
         except InvalidInput as error:
             self._warn(f'{shortened(name)}/wrench: refused: {error}; keeping the last')
-            return
+            return False
         torque = (message.torque.x, message.torque.y, message.torque.z)
         if any(torque) and name not in self.torque_warned:
             self.torque_warned.add(name)
             self.node.get_logger().warning(
                 f'{name}/wrench: torque {torque} ignored: a point mass cannot turn')
+        return True
 
     def _apply_forces(self, simulation, message):
         try:
             simulation.set_external_forces(forces_of(message, simulation.spheres.count))
         except InvalidInput as error:
             self._warn(f'forces: refused: {error}; keeping the last')
-            return
+            return False
         self.set_at[:] = simulation.time
+        return True
 
 
 def forces_of(message, count) -> np.ndarray:

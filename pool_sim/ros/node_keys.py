@@ -10,6 +10,7 @@ PUBLISH_RATE_RANGE = (0.01, 1e4)  # Hz of simulated time
 REAL_TIME_FACTOR_RANGE = (0.0, 1e4)  # 0 = as fast as the machine goes
 WRENCH_TIMEOUT_RANGE = (0.0, 1e6)  # s of simulated time; 0 = for ever
 LOCKSTEP_TIMEOUT_RANGE = (1e-3, 1e4)  # wall s; a dead controller costs at most this once
+FOXGLOVE_PORT_RANGE = (-1, 65535)  # -1: no server; 0: any free port
 # The name of the ~/forces input (every sphere at once) in lockstep_inputs; no sphere takes it.
 FORCES_INPUT = 'forces'
 
@@ -36,6 +37,17 @@ NODE_KEYS = {
     'lockstep_timeout': Key('number', 5.0, 'wall seconds lockstep waits for an input before '
                             'it goes on without it (until it answers again)',
                             *LOCKSTEP_TIMEOUT_RANGE, 's'),
+    'record': Key('string', '', 'an MCAP file (rosbag2 conventions) the node records every '
+                  'published instant and every applied input into; empty: no recording',
+                  allowed=(lambda v: '\0' not in v and len(v) <= 4096,
+                           'a file path (no NUL, at most 4096 characters), or empty')),
+    'foxglove_port': Key('integer', -1, 'TCP port of the Foxglove WebSocket server showing '
+                         'the pool live: -1 none, 0 any free port (logged)',
+                         *FOXGLOVE_PORT_RANGE),
+    'foxglove_host': Key('string', '127.0.0.1', 'the address the Foxglove server listens '
+                         'on: 127.0.0.1 lets only this machine connect, 0.0.0.0 every one',
+                         allowed=(lambda v: v != '' and len(v) <= 253 and '\0' not in v,
+                                  'a host name or address')),
 }
 # The node's keys that may change while it runs (with sphere_names: they name spheres).
 LOCKSTEP_KEYS = ('lockstep', 'lockstep_inputs', 'lockstep_timeout')

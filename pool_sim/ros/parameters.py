@@ -19,7 +19,8 @@ rclpy refuses them with its standard reason.
 import array
 
 import numpy as np
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, ParameterEvent
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, \
+    ParameterEvent
 from rclpy.parameter import Parameter
 
 from pool_sim.physics.scene import Scene
@@ -107,7 +108,11 @@ def describe(name: str, read_only: bool) -> ParameterDescriptor:
     if name.endswith('lift_area'):
         description += '; follows the radius until set'
     descriptor = ParameterDescriptor(description=description, read_only=read_only)
-    if key.low is not None:  # numbers and vectors
+    if key.kind == 'integer':
+        descriptor.integer_range = [
+            IntegerRange(from_value=int(key.low), to_value=int(key.high), step=1)]
+        descriptor.additional_constraints = range_words(key.low, key.high, key.unit)
+    elif key.low is not None:  # numbers and vectors
         descriptor.floating_point_range = [
             FloatingPointRange(from_value=float(key.low), to_value=float(key.high), step=0.0)]
         descriptor.additional_constraints = f'{scope}{range_words(key.low, key.high, key.unit)}'
@@ -193,7 +198,7 @@ def as_declared_types(parameters):
     converted = []
     for parameter in parameters:
         key = number_key(parameter.name)
-        if key is not None and key.low is not None:
+        if key is not None and key.kind in ('number', 'vector'):
             is_array = key.kind == 'vector' or parameter.name.startswith(ARRAY_PREFIX)
             if not is_array and parameter.type_ == Parameter.Type.INTEGER:
                 parameter = Parameter(parameter.name, Parameter.Type.DOUBLE,

@@ -34,6 +34,10 @@ class Published(NamedTuple):
     time_s: float  # simulated s
     stamp_ns: int  # the messages' stamp, ns of simulated time
     messages: tuple  # ((fully qualified topic, message type, serialized CDR bytes), ...)
+    # A state instant: the core's Spheres it was filled from (names, position, velocity,
+    # radius, ...), live arrays: copy what you keep before the call returns. None for /clock
+    # and the scene markers.
+    spheres: object = None
 
 
 class StatePublishing:
@@ -69,8 +73,9 @@ class StatePublishing:
     def listen(self, listener):
         """Call listener(Published) after each publish, on the thread publishing it (the
         clock's, or a service's), under the node's lock: keep it short. A state instant
-        carries the state topics (and odometry where sent); /clock comes as a Published of
-        its own. A state sent again (a republish for late subscribers) is heard again."""
+        carries the state topics (and odometry where sent) and the spheres; /clock and the
+        scene markers come as a Published of their own. A state sent again (a republish for
+        late subscribers) is heard again."""
         self.listeners.append(listener)
 
     def destroy(self):
@@ -103,9 +108,14 @@ class StatePublishing:
     # -- publishing --------------------------------------------------------------------------
 
     def publish_scene_markers(self):
-        scene = self.node.scene
-        self.scene_markers.publish(scene_markers(
-            self.node.simulation.environment.pool, scene['water.surface_z'], scene['frame_id']))
+        """The pool and the water, once (transient-local keeps them for late joiners); the
+        listeners hear them too."""
+        scene, simulation = self.node.scene, self.node.simulation
+        data = serialize_message(scene_markers(simulation.environment.pool,
+                                               scene['water.surface_z'], scene['frame_id']))
+        self.scene_markers.publish(data)
+        self._tell(Published(simulation.time, stamp_nanoseconds(simulation.time),
+                             ((self.scene_markers.topic_name, MarkerArray, data),)))
 
     def publish_clock(self):
         """/clock at the simulation's time, when the scene asks for it."""
@@ -158,7 +168,8 @@ class StatePublishing:
         self.last_publish_wall, self.last_instant_s = time.monotonic(), simulation.time
         self._tell(Published(simulation.time, instant_ns, tuple(
             [(publisher.topic_name, kind, data) for publisher, kind, data in sent]
-            + [(publisher.topic_name, Odometry, data) for publisher, data in odometry])))
+            + [(publisher.topic_name, Odometry, data) for publisher, data in odometry]),
+            spheres))
 
     def _tell(self, published):
         for listener in self.listeners:
