@@ -69,6 +69,8 @@ class SimulationClock:
         self._one_thread = set()  # threads that step with one numba thread
         self.thread = None
         self.stopping, self.wake = threading.Event(), threading.Event()
+        # Callables whose words end the status line (a recorder's, a live view's counts).
+        self.reports = []
         publishing.listen(self._log_status_when_due)
 
     # -- life --------------------------------------------------------------------------------
@@ -308,7 +310,8 @@ class SimulationClock:
                 f'({self.publishing.odometry_sender.dropped} odometry sets left out for slow '
                 f'subscribers), {self.given_up_s:.2f} s given up to the catch-up bound, '
                 f'{self.node.simulation.recoveries} put-backs by the step '
-                f'guard{self.lockstep.report()}; wall time in {parts}')
+                f'guard{self.lockstep.report()}; wall time in {parts}'
+                + ''.join(f'; {report()}' for report in self.reports))
 
     def _log_status_when_due(self, published):
         if time.monotonic() < self.next_status_wall:
