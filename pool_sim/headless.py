@@ -1,37 +1,107 @@
 """Run a scene without ROS and print a table of the spheres over time.
 
     python -m pool_sim.headless [params.yaml] [--seconds 20] [--every 1]
+    python -m pool_sim.headless [params.yaml] --record run.mcap   # as the node records
+
+With --record, the instants the node would publish (publish_rate_hz of simulated time, as
+fast as the machine goes) go into an MCAP file under the node's topic names (/pool_sim/...).
 """
 import argparse
+import signal
 import sys
 
 from pool_sim.physics import InvalidInput, Scene, Simulation
 from pool_sim.ros.node_keys import NODE_SCENE
 
 
-def main(argv=None):
+def parse(argv):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('params_file', nargs='?', help='ROS params YAML (default: the pool)')
     parser.add_argument('--seconds', type=float, default=20.0, help='simulated time, s')
     parser.add_argument('--every', type=float, default=1.0, help='table row interval, s')
-    args = parser.parse_args(argv)
+    parser.add_argument('--record', metavar='PATH',
+                        help="an MCAP file of every instant the node would publish")
+    return parser.parse_args(argv)
+
+
+def refuse(error):
+    """As the node refuses a params file: one line, exit 1."""
+    print(f'pool_sim.headless: refusing to start: {error}', file=sys.stderr)
+    return 1
+
+
+def main(argv=None):
+    args = parse(argv)
     try:
         # A params file written for the node: its keys are checked, the node's read by none.
         scene = (Scene.from_yaml(args.params_file, extension=NODE_SCENE) if args.params_file
-                 else Scene.default())
-    except InvalidInput as error:  # as the node refuses a params file: one line, exit 1
-        print(f'pool_sim.headless: refusing to start: {error}', file=sys.stderr)
-        return 1
+                 else Scene.default(NODE_SCENE))
+    except InvalidInput as error:
+        return refuse(error)
     sim = Simulation(scene)
-    names = sim.spheres.names
-    print('   t [s] ' + ''.join(f'| {n:>8} z [m]  vz [m/s] ' for n in names))
+    if args.record is not None:
+        return run_published(args, scene, sim)
+    print_header(sim)
     rows = round(args.seconds / args.every)
     for row in range(rows + 1):
         sim.advance(row * args.every - sim.time)
-        cells = ''.join(f'| {z:>15.3f} {vz:>9.3f} ' for z, vz in zip(
-            sim.spheres.position[2], sim.spheres.velocity[2]))
-        print(f'{sim.time:8.2f} {cells}')
+        print_row(sim)
     return 0
+
+
+def print_header(sim):
+    print('   t [s] ' + ''.join(f'| {n:>8} z [m]  vz [m/s] ' for n in sim.spheres.names))
+
+
+def print_row(sim):
+    cells = ''.join(f'| {z:>15.3f} {vz:>9.3f} ' for z, vz in zip(
+        sim.spheres.position[2], sim.spheres.velocity[2]))
+    print(f'{sim.time:8.2f} {cells}')
+
+
+def run_published(args, scene, sim):
+    """Step as the node's clock does, telling each instant to the recorder; print a row at
+    the first instant of each --every s. SIGINT or SIGTERM end it with a complete file."""
+    from pool_sim.ros.headless_topics import HeadlessTopics, node_topic
+    from pool_sim.ros.recorder import Recorder
+    topics = HeadlessTopics(scene)
+    outputs = []
+    try:
+        signal.signal(signal.SIGTERM, _interrupt)
+        odometry = ((lambda name: node_topic('pool_sim', f'{name}/odom'))
+                    if scene['per_sphere_topics'] else None)
+        try:
+            outputs.append(Recorder(args.record, Logger(), scene['frame_id'], odometry))
+        except InvalidInput as error:
+            return refuse(error)
+        topics.listen(outputs[-1].published)
+        print_header(sim)
+        next_row = [0.0]
+
+        def on_instant(simulation):
+            if simulation.time >= next_row[0] - 1e-9:
+                print_row(simulation)
+                next_row[0] += args.every
+        topics.run(sim, args.seconds, on_instant)
+    except KeyboardInterrupt:
+        print(f'pool_sim.headless: stopped at {sim.time:.3f} s simulated', file=sys.stderr)
+    finally:
+        for output in outputs:
+            output.close()
+    return 0
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt(signal.Signals(signum).name)
+
+
+class Logger:
+    """rclpy's logger's three levels, on stderr."""
+
+    def info(self, text):
+        print(f'pool_sim.headless: {text}', file=sys.stderr)
+
+    warning = error = info
 
 
 if __name__ == '__main__':

@@ -38,6 +38,9 @@ class Published(NamedTuple):
     # radius, ...), live arrays: copy what you keep before the call returns. None for /clock
     # and the scene markers.
     spheres: object = None
+    # True for the instant published last sent again unchanged, for subscribers that joined
+    # late (a recorder keeps it once).
+    again: bool = False
 
 
 class StatePublishing:
@@ -169,7 +172,7 @@ class StatePublishing:
         self._tell(Published(simulation.time, instant_ns, tuple(
             [(publisher.topic_name, kind, data) for publisher, kind, data in sent]
             + [(publisher.topic_name, Odometry, data) for publisher, data in odometry]),
-            spheres))
+            spheres, new_listeners))
 
     def _tell(self, published):
         for listener in self.listeners:

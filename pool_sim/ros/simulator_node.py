@@ -9,7 +9,8 @@ per job, each handed the node (as rclpy's own ParameterService and TimeSource ar
 - parameter_changes.py: one parameter request, one transaction (plan, check once, apply);
 - world_services.py: set_mass, set_radius, reset, pause, step;
 - inputs.py: the wrench topics, applied through the core's setters, and the wrench clock;
-- diagnostics.py: warnings about unstable steps and spheres the step guard put back.
+- diagnostics.py: warnings about unstable steps and spheres the step guard put back;
+- recorder.py: every instant and input into an MCAP file, when `record` names one.
 
 One node, two threads: the clock thread steps and publishes; the executor that spins the
 node (rclpy.spin, a user's, a test's) runs only the inputs and services. One lock keeps them
@@ -35,6 +36,7 @@ from pool_sim.ros.parameter_changes import ParameterChanges
 from pool_sim.ros.parameters import declare_scene, is_ros_own, overrides_of, params_files, \
     scene_from_overrides
 from pool_sim.ros.publishing import StatePublishing
+from pool_sim.ros.recorder import Recorder
 from pool_sim.ros.services import guard_services
 from pool_sim.ros.world_services import WorldServices
 
@@ -53,7 +55,7 @@ class PoolSimNode(Node):
         # exception: a spawn request carries the new spheres' keys, not declared yet.
         super().__init__(node_name, allow_undeclared_parameters=True, **node_kwargs)
         self._lock = threading.RLock()
-        self.clock = None
+        self.clock = self.recorder = None
         try:
             self._build(default_scene or Scene.default(), run_clock)
         except BaseException:
@@ -83,6 +85,8 @@ class PoolSimNode(Node):
         self.world_services = WorldServices(self, self.clock, self.parameter_changes,
                                             self.publishing, self.inputs, self.lockstep)
         guard_services(self, around_set_parameters=self.parameter_changes.spawn_together)
+        # Listening before the first instant goes out: the recording starts with it.
+        self.recorder = Recorder.for_node(self) if scene['record'] else None
         compiling_s = self.simulation.prepare()
         self.publishing.publish_scene_markers()
         self.publishing.publish_state()
@@ -107,6 +111,8 @@ class PoolSimNode(Node):
     def destroy_node(self):
         if self.clock is not None:
             self.clock.stop()
+        if self.recorder is not None:
+            self.recorder.close()  # after the clock: nothing more comes
         publishing = getattr(self, 'publishing', None)
         if publishing is not None:
             publishing.destroy()
