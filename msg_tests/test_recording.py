@@ -15,6 +15,7 @@ from mcap.stream_reader import StreamReader
 from mcap.records import Message
 from mcap_ros2.decoder import DecoderFactory
 import numpy as np
+from hypothesis import given, settings, strategies as st
 import pytest
 from rclpy.parameter import Parameter
 
@@ -267,3 +268,72 @@ def test_a_disk_that_fills_while_running_stops_the_recording_and_not_the_simulat
         reached = sim.advance(2.0)
         assert reached > 6.9
         assert np.isfinite(sim.states()[0]).all()
+
+
+def test_without_the_mcap_library_a_recording_is_refused_naming_the_command(
+        tmp_path, monkeypatch, capsys):
+    from pool_sim import headless
+    monkeypatch.setitem(sys.modules, 'mcap', None)  # as if it were not installed
+    monkeypatch.setitem(sys.modules, 'mcap.writer', None)
+    assert headless.main(['--seconds', '1', '--record', str(tmp_path / 'r.mcap')]) == 1
+    refusal = capsys.readouterr().err.strip().splitlines()
+    assert len(refusal) == 1 and 'pip install mcap==1.6.0' in refusal[0]
+    assert not (tmp_path / 'r.mcap').exists()
+
+
+def test_the_node_imports_no_recording_or_viewing_library_unless_asked():
+    done = subprocess.run([sys.executable, '-c', (
+        'import sys, pool_sim.ros.simulator_node, pool_sim.headless; '
+        'print(sorted(m for m in sys.modules if m.split(".")[0] in '
+        '("mcap", "mcap_ros2", "rosbags", "foxglove", "matplotlib", "websockets")))')],
+        env=ENV, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == '[]'
+
+
+@pytest.mark.parametrize('name', ['with space é 水.mcap', 'no_suffix', '.hidden.mcap'])
+def test_odd_but_writable_paths_record(tmp_path, name):
+    from pool_sim import headless
+    path = tmp_path / name
+    assert headless.main(['--seconds', '0.2', '--record', str(path)]) == 0
+    assert read_complete(path)['/pool_sim/poses'] == 7  # 0.2 s at 30 Hz, and the start
+
+
+@pytest.mark.parametrize('path, words', [
+    ('x' * 300 + '.mcap', 'File name too long'), ('', "not a file path: ''"),
+    ('/etc/hostname/run.mcap', 'Not a directory')])
+def test_bad_paths_are_refused_by_headless_too(path, words, capsys):
+    from pool_sim import headless
+    assert headless.main(['--seconds', '0.2', '--record', path]) == 1
+    refusal = capsys.readouterr().err.strip().splitlines()
+    assert len(refusal) == 1 and words in refusal[0], refusal
+
+
+def test_record_is_read_only_while_running_and_its_value_is_checked(tmp_path):
+    from pool_sim.physics import InvalidInput, Scene
+    from pool_sim.ros.node_keys import NODE_SCENE
+    for value in (3, 1.5, True, ['a'], 'a\0b', 'x' * 5000):
+        with pytest.raises(InvalidInput, match='record'):
+            Scene({'record': value}, extension=NODE_SCENE)
+    with PoolSim({'record': str(tmp_path / 'a.mcap')}, lockstep=False) as sim:
+        result = sim.node.set_parameters([Parameter('record', value=str(tmp_path / 'b.mcap'))])
+        assert not result[0].successful
+        sim.advance(0.1)
+    assert not (tmp_path / 'b.mcap').exists() and read_complete(tmp_path / 'a.mcap')
+
+
+@given(name=st.text(min_size=1, max_size=300))
+@settings(deadline=None)
+def test_any_file_name_records_or_is_refused_in_one_line(tmp_path_factory, name):
+    from pool_sim.physics import InvalidInput
+    from pool_sim.ros.mcap_file import McapFile
+    folder = tmp_path_factory.mktemp('names')
+    path = str(folder / name)
+    try:
+        recording = McapFile(path)
+    except InvalidInput as error:
+        assert '\n' not in str(error).strip('\n') or '\n' in name
+        return
+    recording.close()
+    with open(recording.stream.name, 'rb') as file:
+        assert make_reader(file).get_summary() is not None

@@ -44,8 +44,9 @@ def qos_yaml(qos) -> str:
 
 def open_for_writing(path: str):
     """The file at `path`, created or truncated; InvalidInput naming it if it cannot be."""
-    if not path:
-        raise InvalidInput('record: an empty path')
+    if not path or '\0' in path:
+        raise InvalidInput(f'record: not a file path: {path!r}')
+    path = os.path.expanduser(path)  # '~/runs/a.mcap', as a shell would have it
     try:
         if os.path.isdir(path):
             raise IsADirectoryError(21, 'Is a directory')
