@@ -337,3 +337,24 @@ def test_any_file_name_records_or_is_refused_in_one_line(tmp_path_factory, name)
     recording.close()
     with open(recording.stream.name, 'rb') as file:
         assert make_reader(file).get_summary() is not None
+
+
+def test_spheres_spawned_and_removed_while_recording_keep_their_own_odometry(tmp_path):
+    path = tmp_path / 'spawned.mcap'
+    with PoolSim({'record': str(path)}, lockstep=False) as sim:
+        sim.advance(0.5)
+        assert sim.node.set_parameters_atomically([
+            Parameter('sphere_names', value=['cork', 'ice', 'buoy']),
+            Parameter('buoy.position', value=[1.0, 1.0, 2.0])]).successful
+        sim.advance(0.5)
+        namespace = sim.namespace
+    found = without_namespace(decoded(path), namespace)
+    poses = found['/pool_sim/poses']
+    buoy, steel = found['/pool_sim/buoy/odom'], found['/pool_sim/steel/odom']
+    # At 0.5 s two instants: the last with steel, and the spawn's, published with the buoy.
+    assert len(steel) + len(buoy) == len(poses)
+    assert steel[-1][0] == buoy[0][0] == 500_000_000
+    for (time_ns, odometry) in buoy:
+        pose = next(message for t, message in poses if t == time_ns)
+        assert odometry.pose.pose.position.z == pose.poses[2].position.z
+    assert [len(message.poses) for _, message in poses[-len(buoy):]] == [3] * len(buoy)
