@@ -354,7 +354,8 @@ def test_spheres_spawned_and_removed_while_recording_keep_their_own_odometry(tmp
     # At 0.5 s two instants: the last with steel, and the spawn's, published with the buoy.
     assert len(steel) + len(buoy) == len(poses)
     assert steel[-1][0] == buoy[0][0] == 500_000_000
+    newest = dict(poses)  # at 0.5 s, the spawn's instant
     for (time_ns, odometry) in buoy:
-        pose = next(message for t, message in poses if t == time_ns)
+        pose = newest[time_ns]
         assert odometry.pose.pose.position.z == pose.poses[2].position.z
     assert [len(message.poses) for _, message in poses[-len(buoy):]] == [3] * len(buoy)
