@@ -2,6 +2,7 @@
 
     python -m pool_sim.headless [params.yaml] [--seconds 20] [--every 1]
     python -m pool_sim.headless [params.yaml] --record run.mcap   # as the node records
+    python -m pool_sim.headless [params.yaml] --animate pool.gif [--seconds 10] [--fps 20]
 
 With --record, the instants the node would publish (publish_rate_hz of simulated time, as
 fast as the machine goes) go into an MCAP file under the node's topic names (/pool_sim/...).
@@ -21,6 +22,10 @@ def parse(argv):
     parser.add_argument('--every', type=float, default=1.0, help='table row interval, s')
     parser.add_argument('--record', metavar='PATH',
                         help="an MCAP file of every instant the node would publish")
+    parser.add_argument('--animate', metavar='PATH.gif',
+                        help='write a side-view GIF (pool_sim.picture) instead of the table')
+    parser.add_argument('--fps', type=float, default=20.0,
+                        help='GIF frames per simulated s (dividing 100: real-time playback)')
     return parser.parse_args(argv)
 
 
@@ -33,11 +38,21 @@ def refuse(error):
 def main(argv=None):
     args = parse(argv)
     try:
+        if args.animate and args.record is not None:
+            raise InvalidInput('--animate draws a GIF, --record records a run: one at a time')
+        if args.animate:  # refused before any simulating, as a bad params file is
+            from pool_sim.picture import checked_animation
+            checked_animation(args.animate, args.seconds, args.fps)
         # A params file written for the node: its keys are checked, the node's read by none.
         scene = (Scene.from_yaml(args.params_file, extension=NODE_SCENE) if args.params_file
                  else Scene.default(NODE_SCENE))
     except InvalidInput as error:
         return refuse(error)
+    if args.animate:
+        from pool_sim.picture import write_gif
+        sim = write_gif(scene, args.animate, args.seconds, args.fps)
+        print(f'{args.animate}: {sim.time:.2f} s simulated, {args.fps:g} frames/s')
+        return 0
     sim = Simulation(scene)
     if args.record is not None:
         return run_published(args, scene, sim)

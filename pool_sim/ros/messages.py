@@ -21,6 +21,8 @@ import numpy as np
 from pool_sim.ros.serialized import PatchedDoubleBlock, PatchedMessage, PatchedMessages
 
 
+# The water's r, g, b, a in the scene markers and pool_sim.picture's GIF: translucent blue.
+WATER_RGBA = (0.1, 0.4, 0.9, 0.3)
 # builtin_interfaces/Time holds seconds in an int32: the last simulated second it can carry.
 LAST_STAMP_S = 2**31 - 1
 
@@ -241,6 +243,6 @@ def scene_markers(pool, surface_z, frame_id) -> MarkerArray:
     water.pose.orientation.w = 1.0
     water.scale.x, water.scale.y = high[0] - low[0], high[1] - low[1]
     water.scale.z = max(water_top - low[2], 1e-6)
-    water.color = ColorRGBA(r=0.1, g=0.4, b=0.9, a=0.3)
+    water.color = ColorRGBA(**dict(zip('rgba', WATER_RGBA)))
     edges.header.frame_id = water.header.frame_id = frame_id
     return MarkerArray(markers=[edges, water])
