@@ -1,6 +1,6 @@
 """Run a scene without ROS and print a table of the spheres over time.
 
-    python -m pool_sim.headless [params.yaml] [--seconds 20] [--every 1]
+    python -m pool_sim.headless [params.yaml] [--seconds 20] [--every 1] [--foxglove [PORT]]
 """
 import argparse
 import sys
@@ -14,15 +14,25 @@ def main(argv=None):
     parser.add_argument('params_file', nargs='?', help='ROS params YAML (default: the pool)')
     parser.add_argument('--seconds', type=float, default=20.0, help='simulated time, s')
     parser.add_argument('--every', type=float, default=1.0, help='table row interval, s')
+    parser.add_argument('--foxglove', type=int, nargs='?', const=8765, metavar='PORT',
+                        help='serve a live view to Foxglove on PORT (default 8765) and run '
+                        'in real time instead of printing the table')
     args = parser.parse_args(argv)
     try:
         # A params file written for the node: its keys are checked, the node's read by none.
         scene = (Scene.from_yaml(args.params_file, extension=NODE_SCENE) if args.params_file
-                 else Scene.default())
+                 else Scene.default(extension=NODE_SCENE))
     except InvalidInput as error:  # as the node refuses a params file: one line, exit 1
         print(f'pool_sim.headless: refusing to start: {error}', file=sys.stderr)
         return 1
     sim = Simulation(scene)
+    if args.foxglove is not None:
+        from pool_sim.ros.foxglove_view import serve_headless
+        try:
+            return serve_headless(scene, sim, args.seconds, args.foxglove)
+        except InvalidInput as error:
+            print(f'pool_sim.headless: refusing to start: {error}', file=sys.stderr)
+            return 1
     names = sim.spheres.names
     print('   t [s] ' + ''.join(f'| {n:>8} z [m]  vz [m/s] ' for n in names))
     rows = round(args.seconds / args.every)

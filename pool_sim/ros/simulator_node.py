@@ -9,7 +9,8 @@ per job, each handed the node (as rclpy's own ParameterService and TimeSource ar
 - parameter_changes.py: one parameter request, one transaction (plan, check once, apply);
 - world_services.py: set_mass, set_radius, reset, pause, step;
 - inputs.py: the wrench topics, applied through the core's setters, and the wrench clock;
-- diagnostics.py: warnings about unstable steps and spheres the step guard put back.
+- diagnostics.py: warnings about unstable steps and spheres the step guard put back;
+- foxglove_view.py: the live view in Foxglove, with foxglove_port >= 0.
 
 One node, two threads: the clock thread steps and publishes; the executor that spins the
 node (rclpy.spin, a user's, a test's) runs only the inputs and services. One lock keeps them
@@ -29,6 +30,7 @@ from pool_sim.physics.spheres import named_few
 from pool_sim.ros.clock import SimulationClock
 from pool_sim.ros.diagnostics import Diagnostics
 from pool_sim.ros.executables import process_age_s, run_node
+from pool_sim.ros.foxglove_view import FoxgloveView
 from pool_sim.ros.inputs import ForceInputs
 from pool_sim.ros.lockstep import Lockstep
 from pool_sim.ros.parameter_changes import ParameterChanges
@@ -53,7 +55,7 @@ class PoolSimNode(Node):
         # exception: a spawn request carries the new spheres' keys, not declared yet.
         super().__init__(node_name, allow_undeclared_parameters=True, **node_kwargs)
         self._lock = threading.RLock()
-        self.clock = None
+        self.clock = self.live_view = None
         try:
             self._build(default_scene or Scene.default(), run_clock)
         except BaseException:
@@ -78,6 +80,9 @@ class PoolSimNode(Node):
         self.publishing = StatePublishing(self, self.lockstep, self.inputs)
         self.clock = SimulationClock(self, self.publishing, self.inputs, self.lockstep,
                                      self.diagnostics, run_clock)
+        # Before the scene markers go out, so the live view hears them too.
+        if scene['foxglove_port'] >= 0:
+            self.live_view = FoxgloveView.for_node(self)
         self.parameter_changes = ParameterChanges(self, self.clock, self.publishing,
                                                   self.inputs, self.lockstep, self.diagnostics)
         self.world_services = WorldServices(self, self.clock, self.parameter_changes,
@@ -107,6 +112,8 @@ class PoolSimNode(Node):
     def destroy_node(self):
         if self.clock is not None:
             self.clock.stop()
+        if self.live_view is not None:
+            self.live_view.close()
         publishing = getattr(self, 'publishing', None)
         if publishing is not None:
             publishing.destroy()
