@@ -281,7 +281,8 @@ class _Subscriptions:
 
 def serve_headless(scene, simulation, seconds, port, host='127.0.0.1'):
     """`python -m pool_sim.headless --foxglove PORT`: run `seconds` of simulated time in
-    real time (as the node at real_time_factor 1) while serving the view. Returns 0."""
+    real time (as the node at real_time_factor 1) while serving the view, or until Ctrl-C.
+    Returns 0."""
     from pool_sim.ros.headless_topics import HeadlessTopics
     topics = HeadlessTopics(scene)
     view = FoxgloveView.for_headless(topics, simulation, port, host)
@@ -293,6 +294,8 @@ def serve_headless(scene, simulation, seconds, port, host='127.0.0.1'):
             time.sleep(ahead_s)
     try:
         topics.run(simulation, seconds, on_instant=keep_pace)
+    except KeyboardInterrupt:  # Ctrl-C ends the run, as it ends the node: no traceback
+        pass
     finally:
         print(view.report(), file=sys.stderr, flush=True)
         view.close()
