@@ -2,6 +2,7 @@
 
     python -m pool_sim.headless [params.yaml] [--seconds 20] [--every 1]
     python -m pool_sim.headless [params.yaml] --record run.mcap   # as the node records
+    python -m pool_sim.headless [params.yaml] --foxglove [PORT]   # live, in real time
     python -m pool_sim.headless [params.yaml] --animate pool.gif [--seconds 10] [--fps 20]
 
 With --record, the instants the node would publish (publish_rate_hz of simulated time, as
@@ -10,6 +11,7 @@ fast as the machine goes) go into an MCAP file under the node's topic names (/po
 import argparse
 import signal
 import sys
+import time
 
 from pool_sim.physics import InvalidInput, Scene, Simulation
 from pool_sim.ros.node_keys import NODE_SCENE
@@ -26,6 +28,9 @@ def parse(argv):
                         help='write a side-view GIF (pool_sim.picture) instead of the table')
     parser.add_argument('--fps', type=float, default=20.0,
                         help='GIF frames per simulated s (dividing 100: real-time playback)')
+    parser.add_argument('--foxglove', type=int, nargs='?', const=8765, metavar='PORT',
+                        help='serve a live view to Foxglove on PORT (default 8765) and run '
+                        'in real time')
     return parser.parse_args(argv)
 
 
@@ -54,7 +59,7 @@ def main(argv=None):
         print(f'{args.animate}: {sim.time:.2f} s simulated, {args.fps:g} frames/s')
         return 0
     sim = Simulation(scene)
-    if args.record is not None:
+    if args.record is not None or args.foxglove is not None:
         return run_published(args, scene, sim)
     print_header(sim)
     rows = round(args.seconds / args.every)
@@ -75,35 +80,53 @@ def print_row(sim):
 
 
 def run_published(args, scene, sim):
-    """Step as the node's clock does, telling each instant to the recorder; print a row at
-    the first instant of each --every s. SIGINT or SIGTERM end it with a complete file."""
+    """Step as the node's clock does, telling each instant to the recorder (--record) and
+    the live view (--foxglove: then in real time, as the node at real_time_factor 1); print
+    a row at the first instant of each --every s. SIGINT or SIGTERM end it, the recording
+    complete."""
     from pool_sim.ros.headless_topics import HeadlessTopics, node_topic
-    from pool_sim.ros.recorder import Recorder
     topics = HeadlessTopics(scene)
     outputs = []
     try:
         signal.signal(signal.SIGTERM, _interrupt)
-        odometry = ((lambda name: node_topic('pool_sim', f'{name}/odom'))
-                    if scene['per_sphere_topics'] else None)
         try:
-            outputs.append(Recorder(args.record, Logger(), scene['frame_id'], odometry))
+            if args.record is not None:
+                from pool_sim.ros.recorder import Recorder
+                odometry = ((lambda name: node_topic('pool_sim', f'{name}/odom'))
+                            if scene['per_sphere_topics'] else None)
+                outputs.append(Recorder(args.record, Logger(), scene['frame_id'], odometry))
+                topics.listen(outputs[-1].published)
+            if args.foxglove is not None:
+                from pool_sim.ros.foxglove_view import FoxgloveView
+                outputs.append(FoxgloveView.for_headless(topics, sim, args.foxglove))
         except InvalidInput as error:
             return refuse(error)
-        topics.listen(outputs[-1].published)
         print_header(sim)
-        next_row = [0.0]
-
-        def on_instant(simulation):
-            if simulation.time >= next_row[0] - 1e-9:
-                print_row(simulation)
-                next_row[0] += args.every
-        topics.run(sim, args.seconds, on_instant)
+        topics.run(sim, args.seconds, on_instant=instant_rows(
+            args.every, paced=args.foxglove is not None, start_s=sim.time))
     except KeyboardInterrupt:
         print(f'pool_sim.headless: stopped at {sim.time:.3f} s simulated', file=sys.stderr)
     finally:
         for output in outputs:
+            print(f'pool_sim.headless: {output.report()}', file=sys.stderr)
             output.close()
     return 0
+
+
+def instant_rows(every_s, paced, start_s):
+    """What HeadlessTopics.run calls after each instant: a table row every `every_s`
+    simulated s and, paced, a wait until the instant's wall time (real time)."""
+    next_row = [start_s]
+    started_wall = time.monotonic()
+
+    def on_instant(simulation):
+        if simulation.time >= next_row[0] - 1e-9:
+            print_row(simulation)
+            next_row[0] += every_s
+        ahead_s = (simulation.time - start_s) - (time.monotonic() - started_wall)
+        if paced and ahead_s > 0:
+            time.sleep(ahead_s)
+    return on_instant
 
 
 def _interrupt(signum, frame):

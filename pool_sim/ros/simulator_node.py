@@ -10,7 +10,8 @@ per job, each handed the node (as rclpy's own ParameterService and TimeSource ar
 - world_services.py: set_mass, set_radius, reset, pause, step;
 - inputs.py: the wrench topics, applied through the core's setters, and the wrench clock;
 - diagnostics.py: warnings about unstable steps and spheres the step guard put back;
-- recorder.py: every instant and input into an MCAP file, when `record` names one.
+- recorder.py: every instant and input into an MCAP file, when `record` names one;
+- foxglove_view.py: the live view in Foxglove, with foxglove_port >= 0.
 
 One node, two threads: the clock thread steps and publishes; the executor that spins the
 node (rclpy.spin, a user's, a test's) runs only the inputs and services. One lock keeps them
@@ -30,6 +31,7 @@ from pool_sim.physics.spheres import named_few
 from pool_sim.ros.clock import SimulationClock
 from pool_sim.ros.diagnostics import Diagnostics
 from pool_sim.ros.executables import process_age_s, run_node
+from pool_sim.ros.foxglove_view import FoxgloveView
 from pool_sim.ros.inputs import ForceInputs
 from pool_sim.ros.lockstep import Lockstep
 from pool_sim.ros.parameter_changes import ParameterChanges
@@ -55,7 +57,7 @@ class PoolSimNode(Node):
         # exception: a spawn request carries the new spheres' keys, not declared yet.
         super().__init__(node_name, allow_undeclared_parameters=True, **node_kwargs)
         self._lock = threading.RLock()
-        self.clock = self.recorder = None
+        self.clock = self.recorder = self.live_view = None
         try:
             self._build(default_scene or Scene.default(), run_clock)
         except BaseException:
@@ -80,6 +82,9 @@ class PoolSimNode(Node):
         self.publishing = StatePublishing(self, self.lockstep, self.inputs)
         self.clock = SimulationClock(self, self.publishing, self.inputs, self.lockstep,
                                      self.diagnostics, run_clock)
+        # Before the scene markers go out, so the live view hears them too.
+        if scene['foxglove_port'] >= 0:
+            self.live_view = FoxgloveView.for_node(self)
         self.parameter_changes = ParameterChanges(self, self.clock, self.publishing,
                                                   self.inputs, self.lockstep, self.diagnostics)
         self.world_services = WorldServices(self, self.clock, self.parameter_changes,
@@ -113,6 +118,8 @@ class PoolSimNode(Node):
             self.clock.stop()
         if self.recorder is not None:
             self.recorder.close()  # after the clock: nothing more comes
+        if self.live_view is not None:
+            self.live_view.close()
         publishing = getattr(self, 'publishing', None)
         if publishing is not None:
             publishing.destroy()
