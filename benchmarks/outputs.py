@@ -5,8 +5,9 @@
 One node process per row (as `ros2 run` starts it; physics 200 Hz, publishing 30 Hz,
 real_time_factor 1; the default pool at 3 spheres with per-sphere topics, N scattered
 spheres with per_sphere_topics false above that), with recording off/on and the Foxglove
-server off/on. With the server on, one WebSocket client in this process subscribes to every
-channel and counts the bytes and the 3D scene frames it receives. The real-time factor comes
+server off/on. With the server on, one WebSocket client in this process subscribes to the 3D
+scene (as Foxglove's 3D panel does; in the last row to every channel: the scene and the raw
+state topics) and counts the bytes and the scene frames it receives. The real-time factor comes
 from the node's own status lines over the last `--seconds` (node_rate.node_own_figures);
 the recording's bytes from the file's growth over the same window.
 """
@@ -38,10 +39,12 @@ def free_port() -> int:
 
 class Client:
     """A Foxglove WebSocket client (subprotocol foxglove.sdk.v1) on a thread: subscribes to
-    every channel advertised and counts bytes and messages per topic."""
+    the 3D scene (as Foxglove's 3D panel does), or with every_channel to every channel
+    advertised, and counts bytes and messages per topic."""
 
-    def __init__(self, port):
+    def __init__(self, port, every_channel=False):
         self.port, self.bytes, self.messages, self.topics = port, 0, {}, {}
+        self.every_channel = every_channel
         self.running = True
         self.thread = threading.Thread(target=lambda: asyncio.run(self._run()), daemon=True)
         self.thread.start()
@@ -70,6 +73,8 @@ class Client:
                     if message.get('op') == 'advertise':
                         subscriptions = []
                         for channel in message['channels']:
+                            if not (self.every_channel or channel['topic'].endswith('/scene')):
+                                continue
                             subscribed += 1
                             self.topics[subscribed] = channel['topic']
                             subscriptions.append({'id': subscribed, 'channelId': channel['id']})
@@ -89,7 +94,7 @@ class Client:
         self.thread.join(timeout=5.0)
 
 
-def measure(params_file, seconds, record_path=None, foxglove=False):
+def measure(params_file, seconds, record_path=None, foxglove=False, every_channel=False):
     """(node RTF, recording bytes per wall s, client bytes per wall s, scene frames per
     wall s, simulated s in the window)."""
     arguments = [sys.executable, '-m', 'pool_sim', '--ros-args', '-p', 'real_time_factor:=1.0']
@@ -102,7 +107,7 @@ def measure(params_file, seconds, record_path=None, foxglove=False):
         arguments += ['-p', f'foxglove_port:={port}']
     node = subprocess.Popen(arguments, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             text=True, env={**os.environ, 'ROS_DOMAIN_ID': str(DOMAIN_ID)})
-    client = Client(port) if foxglove else None
+    client = Client(port, every_channel) if foxglove else None
     log = []
     reader = threading.Thread(target=lambda: log.extend(node.stderr), daemon=True)
     reader.start()
@@ -165,6 +170,10 @@ def main():
                           f'{client_rate / 1e3:.0f} | {frames:.1f} |', flush=True)
                     if path is not None:
                         path.unlink()
+            if count == max(int(n) for n in args.spheres.split(',') if n):
+                rtf, _, client_rate, frames, _ = measure(params, args.seconds, None, True, True)
+                print(f'| {count:,} | off | on, every channel | {rtf:.3f} | | | '
+                      f'{client_rate / 1e3:.0f} | {frames:.1f} |', flush=True)
 
 
 if __name__ == '__main__':

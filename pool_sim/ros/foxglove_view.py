@@ -21,6 +21,8 @@ from pool_sim.physics import InvalidInput
 from pool_sim.ros.foxglove_scene import SphereScene
 from pool_sim.ros.headless_topics import node_topic
 from pool_sim.ros.message_definitions import definition_of
+from pool_sim.ros.messages import (pool_edges, POOL_EDGE_RGBA, POOL_EDGE_WIDTH_M, water_box,
+                                   WATER_RGBA)
 
 INSTALL_COMMAND = 'pip install foxglove-sdk==0.30.3'
 DEFAULT_MAX_RATE_HZ = 30.0  # wall Hz of the 3D scene
@@ -29,9 +31,6 @@ DEFAULT_MAX_RATE_HZ = 30.0  # wall Hz of the 3D scene
 # would let one stalled client hold more than a gigabyte).
 MESSAGE_BACKLOG = 32
 SCENE_TOPIC = 'scene'  # the node's private name of the SceneUpdate channel
-POOL_EDGE_WIDTH_M = 0.02
-WATER_RGBA = (0.1, 0.4, 0.9, 0.3)
-EDGE_RGBA = (0.8, 0.8, 0.8, 1.0)
 
 
 class PoolGeometry(NamedTuple):
@@ -66,21 +65,15 @@ def pool_update(foxglove, geometry: PoolGeometry) -> bytes:
     and 'water', lifetime 0: they stay until replaced)."""
     messages = foxglove.messages
     low, high = geometry.corner_min, geometry.corner_max
-    corners = [(x, y, z) for x in (low[0], high[0]) for y in (low[1], high[1])
-               for z in (low[2], high[2])]
-    points = [messages.Point3(x=corner[0], y=corner[1], z=corner[2])
-              for a in range(8) for b in range(a + 1, 8)
-              if sum(p != q for p, q in zip(corners[a], corners[b])) == 1
-              for corner in (corners[a], corners[b])]
+    points = [messages.Point3(x=x, y=y, z=z) for x, y, z in pool_edges(low, high)]
     edges = messages.LinePrimitive(type=messages.LinePrimitiveLineType.LineList,
                                    thickness=POOL_EDGE_WIDTH_M, scale_invariant=False,
-                                   points=points, color=_colour(messages, EDGE_RGBA))
-    water_height = max(geometry.water_top_m - low[2], 1e-6)
-    centre = messages.Vector3(x=0.5 * (low[0] + high[0]), y=0.5 * (low[1] + high[1]),
-                              z=low[2] + 0.5 * water_height)
+                                   points=points, color=_colour(messages, POOL_EDGE_RGBA))
+    (x, y, z), (width, depth, height) = water_box(low, high, geometry.water_top_m)
+    centre = messages.Vector3(x=x, y=y, z=z)
     water = messages.CubePrimitive(
         pose=messages.Pose(position=centre, orientation=messages.Quaternion(w=1.0)),
-        size=messages.Vector3(x=high[0] - low[0], y=high[1] - low[1], z=water_height),
+        size=messages.Vector3(x=width, y=depth, z=height),
         color=_colour(messages, WATER_RGBA))
     return messages.SceneUpdate(entities=[
         messages.SceneEntity(id='pool', frame_id=geometry.frame_id, lines=[edges]),

@@ -21,8 +21,11 @@ import numpy as np
 from pool_sim.ros.serialized import PatchedDoubleBlock, PatchedMessage, PatchedMessages
 
 
-# The water's r, g, b, a in the scene markers and pool_sim.picture's GIF: translucent blue.
+# The water's r, g, b, a in the scene markers, the Foxglove scene and pool_sim.picture's GIF:
+# translucent blue; the pool's edges light grey, lines POOL_EDGE_WIDTH_M wide.
 WATER_RGBA = (0.1, 0.4, 0.9, 0.3)
+POOL_EDGE_RGBA = (0.8, 0.8, 0.8, 1.0)
+POOL_EDGE_WIDTH_M = 0.02
 # builtin_interfaces/Time holds seconds in an int32: the last simulated second it can carry.
 LAST_STAMP_S = 2**31 - 1
 
@@ -221,28 +224,36 @@ class SphereMessages:
         return self.states.to_bytes()
 
 
+def pool_edges(low, high) -> list:
+    """The twelve edges of the box from corner `low` to corner `high` (m), as 24 points
+    (x, y, z): each pair one edge, as a line list draws them."""
+    corners = [(x, y, z) for x in (low[0], high[0]) for y in (low[1], high[1])
+               for z in (low[2], high[2])]
+    return [corner for a in range(8) for b in range(a + 1, 8)
+            if sum(p != q for p, q in zip(corners[a], corners[b])) == 1
+            for corner in (corners[a], corners[b])]
+
+
+def water_box(low, high, surface_z):
+    """(centre, size), each (x, y, z) m, of the water: the pool up to the surface, clipped
+    to the pool (at least 1 um tall, so a drawing of it stays valid)."""
+    water_top = min(max(surface_z, low[2]), high[2])
+    centre = (0.5 * (low[0] + high[0]), 0.5 * (low[1] + high[1]), 0.5 * (low[2] + water_top))
+    return centre, (high[0] - low[0], high[1] - low[1], max(water_top - low[2], 1e-6))
+
+
 def scene_markers(pool, surface_z, frame_id) -> MarkerArray:
     """The pool's edges as a line list and the water as a translucent box."""
     low, high = pool.corner_min.tolist(), pool.corner_max.tolist()
     edges = Marker(ns='pool', id=0, type=Marker.LINE_LIST, action=Marker.ADD)
-    edges.scale.x = 0.02
+    edges.scale.x = POOL_EDGE_WIDTH_M
     edges.pose.orientation.w = 1.0
-    edges.color = ColorRGBA(r=0.8, g=0.8, b=0.8, a=1.0)
-    corners = [(x, y, z) for x in (low[0], high[0]) for y in (low[1], high[1])
-               for z in (low[2], high[2])]
-    for a in range(8):
-        for b in range(a + 1, 8):
-            if sum(p != q for p, q in zip(corners[a], corners[b])) == 1:
-                edges.points += [Point(x=corners[a][0], y=corners[a][1], z=corners[a][2]),
-                                 Point(x=corners[b][0], y=corners[b][1], z=corners[b][2])]
+    edges.color = ColorRGBA(**dict(zip('rgba', POOL_EDGE_RGBA)))
+    edges.points = [Point(x=x, y=y, z=z) for x, y, z in pool_edges(low, high)]
     water = Marker(ns='water', id=0, type=Marker.CUBE, action=Marker.ADD)
-    water_top = min(max(surface_z, low[2]), high[2])
-    water.pose.position.x = 0.5 * (low[0] + high[0])
-    water.pose.position.y = 0.5 * (low[1] + high[1])
-    water.pose.position.z = 0.5 * (low[2] + water_top)
+    (water.pose.position.x, water.pose.position.y, water.pose.position.z), \
+        (water.scale.x, water.scale.y, water.scale.z) = water_box(low, high, surface_z)
     water.pose.orientation.w = 1.0
-    water.scale.x, water.scale.y = high[0] - low[0], high[1] - low[1]
-    water.scale.z = max(water_top - low[2], 1e-6)
     water.color = ColorRGBA(**dict(zip('rgba', WATER_RGBA)))
     edges.header.frame_id = water.header.frame_id = frame_id
     return MarkerArray(markers=[edges, water])
