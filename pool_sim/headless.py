@@ -9,12 +9,14 @@ With --record, the instants the node would publish (publish_rate_hz of simulated
 fast as the machine goes) go into an MCAP file under the node's topic names (/pool_sim/...).
 """
 import argparse
+import math
 import signal
 import sys
 import time
 
 from pool_sim.physics import InvalidInput, Scene, Simulation
-from pool_sim.ros.node_keys import NODE_SCENE
+from pool_sim.physics.schema import check_integer
+from pool_sim.ros.node_keys import FOXGLOVE_PORT_RANGE, NODE_SCENE
 
 
 def parse(argv):
@@ -40,11 +42,23 @@ def refuse(error):
     return 1
 
 
+def check_arguments(args):
+    """Flags that cannot go together, and numbers out of range: InvalidInput."""
+    if args.animate and (args.record is not None or args.foxglove is not None):
+        raise InvalidInput('--animate draws a GIF; --record and --foxglove run the pool: '
+                           'one at a time')
+    if not (math.isfinite(args.seconds) and args.seconds >= 0.0):
+        raise InvalidInput(f'--seconds: must be finite and >= 0, got {args.seconds!r}')
+    if not (math.isfinite(args.every) and args.every > 0.0):
+        raise InvalidInput(f'--every: must be finite and > 0, got {args.every!r}')
+    if args.foxglove is not None:
+        check_integer('--foxglove', args.foxglove, 0, FOXGLOVE_PORT_RANGE[1])
+
+
 def main(argv=None):
     args = parse(argv)
     try:
-        if args.animate and args.record is not None:
-            raise InvalidInput('--animate draws a GIF, --record records a run: one at a time')
+        check_arguments(args)
         if args.animate:  # refused before any simulating, as a bad params file is
             from pool_sim.picture import checked_animation
             checked_animation(args.animate, args.seconds, args.fps)
@@ -86,7 +100,7 @@ def run_published(args, scene, sim):
     complete."""
     from pool_sim.ros.headless_topics import HeadlessTopics, node_topic
     topics = HeadlessTopics(scene)
-    outputs = []
+    recorder = view = None
     try:
         signal.signal(signal.SIGTERM, _interrupt)
         try:
@@ -94,22 +108,29 @@ def run_published(args, scene, sim):
                 from pool_sim.ros.recorder import Recorder
                 odometry = ((lambda name: node_topic('pool_sim', f'{name}/odom'))
                             if scene['per_sphere_topics'] else None)
-                outputs.append(Recorder(args.record, Logger(), scene['frame_id'], odometry))
-                topics.listen(outputs[-1].published)
+                # No pace to keep: wait for the writer rather than drop an instant.
+                recorder = Recorder(args.record, Logger(), scene['frame_id'], odometry,
+                                    block=True)
+                topics.listen(recorder.published)
             if args.foxglove is not None:
                 from pool_sim.ros.foxglove_view import FoxgloveView
-                outputs.append(FoxgloveView.for_headless(topics, sim, args.foxglove))
+                view = FoxgloveView.for_headless(topics, sim, args.foxglove)
         except InvalidInput as error:
             return refuse(error)
         print_header(sim)
         topics.run(sim, args.seconds, on_instant=instant_rows(
-            args.every, paced=args.foxglove is not None, start_s=sim.time))
+            args.every, paced=view is not None, start_s=sim.time))
     except KeyboardInterrupt:
         print(f'pool_sim.headless: stopped at {sim.time:.3f} s simulated', file=sys.stderr)
     finally:
-        for output in outputs:
-            print(f'pool_sim.headless: {output.report()}', file=sys.stderr)
-            output.close()
+        # A further signal must not cut the clean-up short: the file is finished first.
+        for number in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(number, signal.SIG_IGN)
+        if recorder is not None:
+            recorder.close()  # it says its last counts as it closes
+        if view is not None:
+            view.close()
+            print(f'pool_sim.headless: {view.report()}', file=sys.stderr)
     return 0
 
 

@@ -22,6 +22,10 @@ POOL_EDGE_RGB = (0.25, 0.25, 0.25)
 SPHERE_EDGE_RGB = (0.1, 0.1, 0.1)
 
 
+# More frames than a GIF anyone would watch (40 min at 20 fps): refused before drawing.
+MAX_FRAMES = 50_000
+
+
 def checked_animation(path, seconds: float, fps: float) -> Path:
     """The path an animation will be written to, refused (InvalidInput naming it) unless it
     ends in .gif and can be written now; seconds >= 0 and fps > 0 (both finite). Checked
@@ -30,6 +34,9 @@ def checked_animation(path, seconds: float, fps: float) -> Path:
         raise InvalidInput(f'--seconds: must be finite and >= 0, got {seconds!r}')
     if not (np.isfinite(fps) and fps > 0.0):
         raise InvalidInput(f'--fps: must be finite and > 0, got {fps!r}')
+    if seconds * fps > MAX_FRAMES:
+        raise InvalidInput(f'--seconds {seconds:g} at --fps {fps:g} is {seconds * fps:.3g} '
+                           f'frames; at most {MAX_FRAMES} (a GIF of minutes, not of days)')
     path = Path(path)
     if path.suffix.lower() != '.gif':
         raise InvalidInput(f'--animate {path}: must end in .gif (an animated GIF is written)')

@@ -115,10 +115,12 @@ class FoxgloveView:
             self.server = foxglove.start_server(
                 name='pool_sim', host=host, port=port, context=self.context,
                 server_listener=_Subscriptions(self), message_backlog_size=MESSAGE_BACKLOG)
-        except RuntimeError as error:
+        except (RuntimeError, OverflowError, ValueError, TypeError) as error:
             raise InvalidInput(f'foxglove_host {host!r}, foxglove_port {port}: cannot serve '
                                f'the Foxglove view there ({error})') from None
         self.port = self.server.port
+        # An IPv6 address goes in brackets in a URL (ws://[::1]:8765).
+        self.url = f'ws://{f"[{host}]" if ":" in host else host}:{self.port}'
         self.scene_channel = foxglove.Channel(
             scene_topic, message_encoding='protobuf',
             schema=foxglove.messages.SceneUpdate.get_schema(), context=self.context)
@@ -128,7 +130,7 @@ class FoxgloveView:
         self.thread = threading.Thread(target=self._run, name='pool_sim_foxglove',
                                        daemon=True)
         self.thread.start()
-        log(f'foxglove: serving the pool on ws://{host}:{self.port} (open it in Foxglove: '
+        log(f'foxglove: serving the pool on {self.url} (open it in Foxglove: '
             'Open connection -> Foxglove WebSocket)')
 
     # -- factories ---------------------------------------------------------------------------
@@ -243,7 +245,7 @@ class FoxgloveView:
         """The status line's words: clients subscribed, scene frames sent, instants dropped."""
         with self._ready:
             clients = len({client for client, _ in self.subscriptions})
-        return (f'foxglove ws://{self.host}:{self.port}: {clients} '
+        return (f'foxglove {self.url}: {clients} '
                 f'client{"" if clients == 1 else "s"}, {self.frames_sent} frames sent, '
                 f'{self.dropped} dropped, {self.bytes_sent / 1e6:.1f} MB out')
 

@@ -8,7 +8,14 @@ as rosbag2's version-9 YAML) and `topic_type_hash` (RIHS01); messages as seriali
 log and publish time in ns; chunks of CHUNK_BYTES compressed with zstd; and at the end a
 metadata record `rosbag2` whose `serialized_metadata` is the bag's metadata (version 9,
 rosbag2_bagfile_information), without which rosbag2 reads the QoS as version 8.
+
+The writer keeps each chunk's index in memory until the file is finished, an entry per
+channel in the chunk (with each sphere's odometry a channel of its own, ~70 kB a chunk at
+1 000 spheres): chunks are large (CHUNK_BYTES) and close at least every flush, so a long
+recording of many per-sphere channels grows by about that much a second. Message indexes
+stay: rosbags, among others, finds messages only through them.
 """
+from functools import lru_cache
 import os
 
 import yaml
@@ -16,13 +23,18 @@ import yaml
 from pool_sim.physics import InvalidInput
 from pool_sim.ros.message_definitions import definition_of
 
-# A chunk is compressed and written once it holds this many bytes: a kill -9 loses at
-# most the chunk in progress (at 10 000 spheres about one instant).
-CHUNK_BYTES = 4 * 1024 * 1024
+# A chunk is compressed and written once it holds this many bytes, or at a flush (the
+# recorder's, every wall second): a kill -9 loses at most the chunk in progress.
+CHUNK_BYTES = 16 * 1024 * 1024
 BAG_VERSION = 9  # rosbag2's metadata version of Jazzy (QoS as words, not integers)
 INSTALL = 'pip install mcap==1.6.0'
 # An unset QoS duration, as rmw reports one (RMW_DURATION_INFINITE).
 INFINITE = {'sec': 9223372036, 'nsec': 854775807}
+
+
+# libyaml's emitter where PyYAML has it: the bag's metadata names every topic (thousands with
+# per-sphere odometry), and the pure-Python one takes ~2 ms a topic.
+DUMPER = getattr(yaml, 'CSafeDumper', yaml.SafeDumper)
 
 
 def qos_yaml(qos) -> str:
@@ -32,14 +44,19 @@ def qos_yaml(qos) -> str:
         if nanoseconds == 0:
             return dict(INFINITE)
         return {'sec': nanoseconds // 1_000_000_000, 'nsec': nanoseconds % 1_000_000_000}
-    return yaml.safe_dump([{
+    return yaml.dump([{
         'history': qos.history.short_key, 'depth': qos.depth,
         'reliability': qos.reliability.short_key, 'durability': qos.durability.short_key,
         'deadline': duration(qos.deadline), 'lifespan': duration(qos.lifespan),
         'liveliness': qos.liveliness.short_key,
         'liveliness_lease_duration': duration(qos.liveliness_lease_duration),
         'avoid_ros_namespace_conventions': qos.avoid_ros_namespace_conventions,
-    }], sort_keys=False).rstrip('\n')
+    }], Dumper=DUMPER, sort_keys=False).rstrip('\n')
+
+
+@lru_cache(maxsize=None)
+def qos_list(profile: str) -> list:
+    return yaml.safe_load(profile)
 
 
 def open_for_writing(path: str):
@@ -70,6 +87,7 @@ class McapFile:
         self.schemas = {}  # message type -> schema id
         self.channels = {}  # topic -> (channel id, message type)
         self.topics = []  # [name, type, qos YAML, hash, count] in first-seen order
+        self.profiles = {}  # id of a QoSProfile -> (it, its YAML): the few, made once
         self.first_ns, self.last_ns, self.count, self.closed = None, None, 0, False
         self.stream = open_for_writing(path)
         try:
@@ -97,7 +115,10 @@ class McapFile:
             schema = self.writer.register_schema(definition.name, 'ros2msg',
                                                  definition.text.encode())
             self.schemas[message_type] = schema
-        profile = qos_yaml(qos)
+        known_profile = self.profiles.get(id(qos))
+        if known_profile is None:  # the profile kept with it, so its id stays its own
+            known_profile = self.profiles[id(qos)] = (qos, qos_yaml(qos))
+        profile = known_profile[1]
         channel = self.writer.register_channel(topic, 'cdr', schema, {
             'offered_qos_profiles': profile, 'topic_type_hash': definition.type_hash})
         self.channels[topic] = (channel, message_type)
@@ -132,7 +153,7 @@ class McapFile:
         start = self.first_ns or 0
         duration = (self.last_ns or 0) - start
         name = os.path.basename(self.path)
-        return yaml.safe_dump({
+        return yaml.dump({
             'version': BAG_VERSION, 'storage_identifier': 'mcap',
             'duration': {'nanoseconds': duration},
             'starting_time': {'nanoseconds_since_epoch': start},
@@ -140,7 +161,7 @@ class McapFile:
             'topics_with_message_count': [{
                 'topic_metadata': {'name': topic, 'type': type_name,
                                    'serialization_format': 'cdr',
-                                   'offered_qos_profiles': yaml.safe_load(profile),
+                                   'offered_qos_profiles': qos_list(profile),
                                    'type_description_hash': type_hash},
                 'message_count': count} for topic, type_name, profile, type_hash, count
                 in self.topics],
@@ -149,4 +170,4 @@ class McapFile:
             'files': [{'path': name, 'starting_time': {'nanoseconds_since_epoch': start},
                        'duration': {'nanoseconds': duration}, 'message_count': self.count}],
             'custom_data': {'recorded_by': 'pool_sim'}, 'ros_distro': 'jazzy',
-        }, sort_keys=False)
+        }, Dumper=DUMPER, sort_keys=False)
