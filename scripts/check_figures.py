@@ -2,8 +2,9 @@
 
     python3 scripts/check_figures.py [FILE.md ...]   (default: README.md and docs/*.md)
 
-Prints `file:line: ...` for each violation and exits 1 when there is one. The rule, line by
-line (a table row is a line; fenced code blocks are skipped):
+Prints `file:line: ...` for each violation and exits 1 when there is one. The rule holds per
+block: a paragraph, a list item (with its continuation lines) or a table row; fenced code
+blocks are skipped:
 
 1. A figure is a number followed by a unit: ns, µs (or μs, us), ms, s, Hz, kHz, MHz, %,
    MB, kB, GB, MB/s, kB/s, fps, frames/s (a space between them allowed), or × / x as a
@@ -14,15 +15,15 @@ line (a table row is a line; fenced code blocks are skipped):
    or thin space between groups of three digits (`1 000` == `1,000` == `1000`). A sign is
    dropped. Then they are compared as written: `26.0` matches `26.0`, `26` matches `26`,
    `26` does not match `26.0` nor `126`.
-3. A line that links files under results/ must quote only figures whose number appears
+3. A block that links files under results/ must quote only figures whose number appears
    in at least one of the linked files (every number of a results file counts, normalised
    the same way, and each group of a spaced number on its own too). A link to a results
-   file that does not exist is a violation too. A line links a results file by a relative
+   file that does not exist is a violation too. A block links a results file by a relative
    markdown link (`[..](results/x.md)` from README.md, `[..](../results/x.md)` from docs/) or by naming
    its path, plain or in `code` (`results/x.md`, `../results/x.md`), resolved from the
    page's folder; a folder (`results/accuracy/`) stands for every text file in it.
 4. In docs/performance.md, and in any section whose heading says "figures" (as README's
-   "Headline figures"), a line quoting a figure must link a results file.
+   "Headline figures"), a block quoting a figure must link a results file.
 """
 import re
 import sys
@@ -94,29 +95,55 @@ def linked_numbers(paths: list) -> set:
     return found
 
 
-def violations(page: Path) -> list:
-    """'file:line: what' for every line of `page` that breaks the rule."""
-    shown = page.relative_to(ROOT) if ROOT in page.resolve().parents else page
-    must_link = page.name == 'performance.md' and page.parent.name == 'docs'
-    figures_level, fenced, found = None, False, []
-    for number, line in enumerate(page.read_text(encoding='utf-8').splitlines(), 1):
+LIST_ITEM = re.compile(r'^\s*(?:[-*+]|\d+\.)\s')
+
+
+def blocks(text: str):
+    """(first line number, text) of each paragraph, list item and table row outside fenced
+    code, and (line number, heading line) of each heading: a figure and the results link
+    it comes from may sit on different lines of one paragraph or item."""
+    fenced, start, lines = False, None, []
+    for number, line in enumerate(text.splitlines(), 1):
         if line.lstrip().startswith(('```', '~~~')):
             fenced = not fenced
+            line = ''
+        elif fenced:
             continue
-        if fenced:
-            continue
-        heading = HEADING.match(line)
+        new_block = (not line.strip() or HEADING.match(line) or LIST_ITEM.match(line)
+                     or line.lstrip().startswith('|'))
+        if new_block and lines:
+            yield start, ' '.join(lines)
+            lines = []
+        if HEADING.match(line):
+            yield number, line
+        elif line.strip():
+            if not lines:
+                start = number
+            lines.append(line.strip())
+    if lines:
+        yield start, ' '.join(lines)
+
+
+def violations(page: Path) -> list:
+    """'file:line: what' for every paragraph, item or row of `page` that breaks the rule
+    (its first line's number)."""
+    shown = page.relative_to(ROOT) if ROOT in page.resolve().parents else page
+    must_link = page.name == 'performance.md' and page.parent.name == 'docs'
+    figures_level, found = None, []
+    for number, block in blocks(page.read_text(encoding='utf-8')):
+        heading = HEADING.match(block)
         if heading:
             level = len(heading.group(1))
             if 'figures' in heading.group(2).lower():
                 figures_level = level
             elif figures_level is not None and level <= figures_level:
                 figures_level = None
-        quoted = figures(line)
+            continue
+        quoted = figures(block)
         if not quoted:
             continue
         where = f'{shown}:{number}'
-        linked = results_links(line, page)
+        linked = results_links(block, page)
         if not linked:
             if must_link or figures_level is not None:
                 found += [f'{where}: {written!r} quoted with no results/ link'
