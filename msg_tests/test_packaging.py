@@ -241,6 +241,10 @@ def test_pip_install_gives_a_core_that_runs(fresh_venv):
     installed_at, *position = done.stdout.splitlines()
     assert installed_at.startswith(str(python.parents[1])), installed_at  # not this checkout
     assert len(position) == 3 and 'nan' not in done.stdout, done.stdout
+    # data_files land in the venv as in a colcon install: AMENT_PREFIX_PATH finds them.
+    share = python.parents[1] / 'share'
+    assert (share / 'pool_sim' / 'LICENSE').is_file()
+    assert (share / 'ament_index' / 'resource_index' / 'packages' / 'pool_sim').is_file()
 
 
 def test_pip_install_gives_the_headless_executable(fresh_venv):
