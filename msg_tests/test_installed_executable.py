@@ -51,10 +51,11 @@ def ros2_run_path(env, package, executable):
     return path
 
 
-def test_ros2_run_finds_both_executables_the_default_scene_and_the_rviz_config(workspace):
-    for executable in ('pool_sim', 'depth_keeper'):
+def test_ros2_run_finds_the_executables_the_default_scene_and_the_rviz_config(workspace):
+    for executable in ('pool_sim', 'depth_keeper', 'pool_sim_headless'):
         ros2_run_path(workspace, 'pool_sim', executable)
     prefix = Path(workspace['AMENT_PREFIX_PATH'].split(os.pathsep)[0])
+    assert (prefix / 'share' / 'pool_sim' / 'LICENSE').is_file()
     assert (prefix / 'share' / 'pool_sim' / 'config' / 'pool.yaml').is_file()
     # The README's `rviz2 -d $(ros2 pkg prefix pool_sim)/share/pool_sim/config/pool_sim.rviz`.
     assert (prefix / 'share' / 'pool_sim' / 'config' / 'pool_sim.rviz').is_file()

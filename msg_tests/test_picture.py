@@ -123,3 +123,17 @@ def test_a_bad_rate_or_duration_is_refused(tmp_path, extra, words):
     assert done.returncode == 1 and 'Traceback' not in done.stderr, done.stderr
     assert all(word in done.stderr for word in words), done.stderr
     assert not (tmp_path / 'pool.gif').exists()
+
+
+def test_without_matplotlib_animate_is_refused_in_one_line_naming_the_install(tmp_path):
+    path = tmp_path / 'pool.gif'
+    # None in sys.modules: `import matplotlib` fails as it does where it is not installed.
+    hide_matplotlib = ("import sys; sys.modules['matplotlib'] = None; "
+                       "from pool_sim.headless import main; sys.exit(main(sys.argv[1:]))")
+    done = subprocess.run([sys.executable, '-c', hide_matplotlib, '--animate', str(path)],
+                          env=ENV, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 1 and 'Traceback' not in done.stderr, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and picture.INSTALL_COMMAND in lines[0], done.stderr
+    assert 'pip install matplotlib==3.11.2' in lines[0]
+    assert not done.stdout and not path.exists()

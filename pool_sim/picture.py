@@ -4,7 +4,8 @@ colour of its RViz marker, so the GIF, RViz and Foxglove agree.
 
     python -m pool_sim.headless --animate pool.gif [--seconds 10] [--fps 20]
 
-matplotlib is imported inside the functions that draw: the node never pays for it.
+matplotlib is imported inside the functions that draw: the node never pays for it. Without
+it, --animate is refused in one line naming the install command, before any simulating.
 """
 import os
 from pathlib import Path
@@ -22,6 +23,18 @@ POOL_EDGE_RGB = (0.25, 0.25, 0.25)
 SPHERE_EDGE_RGB = (0.1, 0.1, 0.1)
 
 
+INSTALL_COMMAND = 'pip install matplotlib==3.11.2'
+
+
+def require_matplotlib():
+    """Refused (InvalidInput naming the install command) unless matplotlib imports."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError as error:
+        raise InvalidInput(f'--animate needs matplotlib ({error}); install it with '
+                           f'`{INSTALL_COMMAND}`') from None
+
+
 # More frames than a GIF anyone would watch (40 min at 20 fps): refused before drawing.
 MAX_FRAMES = 50_000
 
@@ -29,7 +42,8 @@ MAX_FRAMES = 50_000
 def checked_animation(path, seconds: float, fps: float) -> Path:
     """The path an animation will be written to, refused (InvalidInput naming it) unless it
     ends in .gif and can be written now; seconds >= 0 and fps > 0 (both finite). Checked
-    before any simulating."""
+    before any simulating; so is a missing matplotlib."""
+    require_matplotlib()
     if not (np.isfinite(seconds) and seconds >= 0.0):
         raise InvalidInput(f'--seconds: must be finite and >= 0, got {seconds!r}')
     if not (np.isfinite(fps) and fps > 0.0):

@@ -3,6 +3,8 @@
 Once pool_sim is installed (colcon, pip), pytest finds this plugin by itself (a `pytest11`
 entry point) and every test may ask for the `pool_sim` fixture::
 
+    from rclpy.parameter import Parameter
+
     from pool_sim.ros.depth_keeper import DepthKeeper
 
     def test_the_keeper_holds_ice_at_one_metre(pool_sim):
