@@ -38,7 +38,7 @@ ROSDEP_KEYS = {'numpy': 'python3-numpy', 'yaml': 'python3-yaml', 'numba': 'pytho
 DISTRIBUTIONS = {'numpy': 'numpy', 'numba': 'numba', 'yaml': 'PyYAML'}
 # Modules of this repository that tests import as top-level names (msg_tests/, scripts/).
 LOCAL_MODULES = {path.stem for folder in ('msg_tests', 'scripts', 'benchmarks')
-                 for path in (REPO / folder).glob('*.py')} | {'pool_sim', 'benchmarks'}
+                 for path in (REPO / folder).glob('*.py')} | {'pool_sim', 'benchmarks', 'scripts'}
 
 
 def imports(path, module_level_only=False):
