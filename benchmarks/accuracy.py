@@ -19,7 +19,7 @@ import platform
 import numpy as np
 
 from benchmarks import reference
-from benchmarks.common import seconds_per_step_in_turns, write_csv
+from benchmarks.common import provenance, seconds_per_step_in_turns, write_csv
 from pool_sim.physics import DEFAULT_INTEGRATOR, INTEGRATORS, Scene, Simulation
 from pool_sim.physics import stepper
 from pool_sim.physics.stability import stable_step_bound
@@ -274,7 +274,8 @@ def main():
         rows = measure(args.quick)
         write_csv(rows, out / 'accuracy.csv')
     table = markdown(rows)
-    (out / 'accuracy.md').write_text(table)
+    (out / 'accuracy.md').write_text(
+        provenance('.venv/bin/python -m benchmarks.accuracy') + '\n\n' + table)
     plot(rows, out / 'accuracy.png')
     print(table)
 

@@ -71,3 +71,27 @@ def write_csv(rows, path):
         writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
+
+
+def provenance(command: str) -> str:
+    """One line a results file starts with: the command that made it, the commit (marked
+    when the tree had uncommitted changes), the date and the machine."""
+    import datetime
+    import platform
+    import subprocess
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+    def git(*arguments):
+        try:
+            return subprocess.run(['git', *arguments], cwd=root, capture_output=True,
+                                  text=True, timeout=10).stdout.strip()
+        except OSError:
+            return ''
+    commit = git('rev-parse', '--short', 'HEAD') or 'unknown'
+    if git('status', '--porcelain', '--untracked-files=no'):
+        commit += ' with uncommitted changes'
+    model = next((line.split(':', 1)[1].strip() for line in open('/proc/cpuinfo')
+                  if line.startswith('model name')), platform.processor())
+    return (f'Made by `{command}` at commit {commit}, {datetime.date.today().isoformat()}; '
+            f'{platform.machine()}, {os.cpu_count()} cores ({model}), Python '
+            f'{platform.python_version()}.')

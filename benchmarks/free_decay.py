@@ -23,10 +23,12 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / 'scripts'))
 
+from benchmarks.common import provenance  # noqa: E402
 from benchmarks.reference import cummins_free_decay, decay_period_and_damping  # noqa: E402
 from pool_sim.physics import Scene, Simulation  # noqa: E402
 
 RESULTS = ROOT / 'results' / 'wave_radiation'
+PROVENANCE = provenance('PYTHONPATH=. .venv/bin/python benchmarks/free_decay.py')
 WATER, G = 1000.0, 9.81
 # The three validation drafts (s = d/r): the cork's (density ratio 1/4), half submerged,
 # the ice's (0.917).
@@ -169,7 +171,7 @@ def main():
                          f'{t_sim:.4f} | {t_sim / t_ref - 1:+.1%} | {z_ref:.4f} | '
                          f'{z_sim:.4f} | {z_sim / z_ref - 1:+.1%} |')
     AMPLITUDE = linear
-    (RESULTS / 'free_decay.md').write_text('\n'.join(lines) + '\n')
+    (RESULTS / 'free_decay.md').write_text('\n'.join([PROVENANCE, ''] + lines) + '\n')
     print('\n'.join(lines))
 
     figure, axes = plt.subplots(len(rows), 1, figsize=(8, 8), sharex=True)
@@ -211,7 +213,8 @@ def main():
             settled = settled_from(times, z, rest_height(sim, name))
             settle_lines.append(f'| {label} | {name} | {" | ".join(swings)} | '
                                 + (f'{settled:.1f} |' if settled < 180.0 else 'not by 180 |'))
-    (RESULTS / 'pool_settling.md').write_text('\n'.join(settle_lines) + '\n')
+    (RESULTS / 'pool_settling.md').write_text('\n'.join(settle_lines[:1] + ['', PROVENANCE]
+                                                       + settle_lines[1:]) + '\n')
     print('\n'.join(settle_lines))
     draw_pool(final, RESULTS / 'pool_at_rest.png')
 
