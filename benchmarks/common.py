@@ -88,7 +88,7 @@ def provenance(command: str) -> str:
         except OSError:
             return ''
     commit = git('rev-parse', '--short', 'HEAD') or 'unknown'
-    if git('status', '--porcelain', '--untracked-files=no'):
+    if git('status', '--porcelain', '--untracked-files=no', '--', '.', ':!results'):
         commit += ' with uncommitted changes'
     model = next((line.split(':', 1)[1].strip() for line in open('/proc/cpuinfo')
                   if line.startswith('model name')), platform.processor())

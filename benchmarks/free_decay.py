@@ -191,7 +191,7 @@ def main():
     figure.tight_layout()
     figure.savefig(RESULTS / 'free_decay.png', dpi=110)
 
-    settle_lines = ['# The seed\'s pool coming to rest', '',
+    settle_lines = ['# The book\'s pool coming to rest', '',
                     'Heights sampled every 7 steps (28.6 Hz); swing = peak to peak in the window '
                     '(mm); settled: from when the height stays within 1 mm of where the sphere '
                     'rests (its exact draft in air and water, or the floor).', '',
