@@ -21,7 +21,7 @@ import platform
 
 import numpy as np
 
-from benchmarks.common import timed, write_csv
+from benchmarks.common import provenance, timed, write_csv
 from benchmarks.seed_port import Environment, PointMass
 from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, Spheres, stepper
 
@@ -224,7 +224,8 @@ def main():
     rows, bandwidth = measure(args.largest)
     write_csv(rows, out / 'scaling.csv')
     table = markdown(rows, bandwidth)
-    (out / 'scaling.md').write_text(table)
+    (out / 'scaling.md').write_text(
+        provenance('.venv/bin/python -m benchmarks.scaling') + '\n\n' + table)
     plot(rows, out / 'scaling.png')
     print(table)
 
