@@ -75,7 +75,8 @@ def write_csv(rows, path):
 
 def provenance(command: str) -> str:
     """One line a results file starts with: the command that made it, the commit (marked
-    when the tree had uncommitted changes), the date and the machine."""
+    when pool_sim/ or benchmarks/, the code a figure rests on, had uncommitted changes),
+    the date and the machine."""
     import datetime
     import platform
     import subprocess
@@ -88,7 +89,7 @@ def provenance(command: str) -> str:
         except OSError:
             return ''
     commit = git('rev-parse', '--short', 'HEAD') or 'unknown'
-    if git('status', '--porcelain', '--untracked-files=no', '--', '.', ':!results'):
+    if git('status', '--porcelain', '--untracked-files=no', '--', 'pool_sim', 'benchmarks'):
         commit += ' with uncommitted changes'
     model = next((line.split(':', 1)[1].strip() for line in open('/proc/cpuinfo')
                   if line.startswith('model name')), platform.processor())
