@@ -61,7 +61,9 @@ class SimulationClock:
         self.given_up_s = 0.0
         self.paused_wall_s, self.paused_since = 0.0, None
         self.started_wall = time.monotonic()  # set again by start()
-        self.next_status_wall = self.started_wall + STATUS_PERIOD_S
+        # No status line before start(): the first instant goes out while the node builds,
+        # and a cold compile (seconds) is no running time.
+        self.next_status_wall = math.inf
         tick_period = (max(node.simulation.max_step, self.publish_period)
                        / self.real_time_factor if self.real_time_factor > 0 else 0.0)
         self.tick_period = min(max(tick_period, TICK_PERIOD_RANGE_S[0]),
