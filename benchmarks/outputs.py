@@ -16,7 +16,6 @@ import asyncio
 import json
 import os
 from pathlib import Path
-import re
 import signal
 import socket
 import subprocess

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from pool_sim.physics import InvalidInput, Simulation
-from pool_sim.ros.messages import sphere_colours, WATER_RGBA
+from pool_sim.ros.messages import sphere_colours, WATER_RGBA, water_top
 
 WIDTH_PX = 480
 DPI = 100  # pixels per inch: with it, font sizes in points give ~11 px text
@@ -108,8 +108,8 @@ class SideView:
         axes.tick_params(labelsize=7, length=2, pad=1)
         axes.set_xlabel('x [m]', fontsize=7, labelpad=1)
         axes.set_ylabel('z [m]', fontsize=7, labelpad=1)
-        water_top = min(max(scene['water.surface_z'], low[2]), high[2])
-        axes.add_patch(Rectangle((low[0], low[2]), high[0] - low[0], water_top - low[2],
+        top = water_top(low, high, scene['water.surface_z'])
+        axes.add_patch(Rectangle((low[0], low[2]), high[0] - low[0], top - low[2],
                                  facecolor=WATER_RGBA[:3], alpha=WATER_RGBA[3],
                                  edgecolor='none', zorder=1))
         axes.add_patch(Rectangle((low[0], low[2]), high[0] - low[0], high[2] - low[2],

@@ -37,6 +37,18 @@ STATUS_PERIOD_S = 5.0
 QUIET_REPUBLISH_S = 1.0
 
 
+
+def steps_to_instant(instant_s, time_s, dt) -> int:
+    """Steps of dt from time_s that reach the publish instant instant_s (at least one)."""
+    return max(math.ceil((instant_s - 1e-9 - time_s) / dt), 1)
+
+
+def next_instant(instant_s, period_s, time_s) -> float:
+    """The publish instant after instant_s; one period from time_s if that is already past
+    (a step longer than the publish period)."""
+    instant_s += period_s
+    return instant_s if instant_s > time_s else time_s + period_s
+
 class SimulationClock:
     """Time for `node` (its simulation, lock and logger): publishing sends each instant,
     inputs are applied at the start of each tick, lockstep holds the steps until the
@@ -251,7 +263,7 @@ class SimulationClock:
                 'can carry (2^31 s): paused; ~/reset starts again from 0')
             return False, 0
         self.inputs.release_expired(simulation, self.wrench_timeout)
-        steps = max(math.ceil((self.next_publish_time - 1e-9 - simulation.time) / dt), 1)
+        steps = steps_to_instant(self.next_publish_time, simulation.time, dt)
         steps = max(min(steps, int((LAST_STAMP_S - simulation.time) / dt)), 1)
         if limit is not None:
             steps = min(steps, limit)
@@ -273,9 +285,8 @@ class SimulationClock:
         self.simulated_s += steps * dt
         if simulation.time >= self.next_publish_time - 1e-9:
             self.publishing.publish_state()
-            self.next_publish_time += self.publish_period
-            if self.next_publish_time <= simulation.time:
-                self.next_publish_time = simulation.time + self.publish_period
+            self.next_publish_time = next_instant(self.next_publish_time,
+                                                  self.publish_period, simulation.time)
             return self.lockstep.awaited_ns is None, steps
         return True, steps
 

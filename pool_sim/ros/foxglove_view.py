@@ -22,7 +22,7 @@ from pool_sim.ros.foxglove_scene import SphereScene
 from pool_sim.ros.headless_topics import node_topic
 from pool_sim.ros.message_definitions import definition_of
 from pool_sim.ros.messages import (pool_edges, POOL_EDGE_RGBA, POOL_EDGE_WIDTH_M, water_box,
-                                   WATER_RGBA)
+                                   water_top, WATER_RGBA)
 
 INSTALL_COMMAND = 'pip install foxglove-sdk==0.30.3'
 DEFAULT_MAX_RATE_HZ = 30.0  # wall Hz of the 3D scene
@@ -44,7 +44,7 @@ class PoolGeometry(NamedTuple):
     def of(cls, simulation, scene):
         pool = simulation.environment.pool
         low, high = pool.corner_min.tolist(), pool.corner_max.tolist()
-        return cls(tuple(low), tuple(high), min(max(scene['water.surface_z'], low[2]), high[2]),
+        return cls(tuple(low), tuple(high), water_top(low, high, scene['water.surface_z']),
                    scene['frame_id'])
 
 

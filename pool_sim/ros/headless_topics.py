@@ -1,16 +1,13 @@
 """The node's published instants without a node: for `python -m pool_sim.headless`, whose
 recorder and live view hear what a node named `pool_sim` would publish, under the same
 topic names, in the same messages (the same SphereMessages fill them), with no DDS."""
-import math
-
 from geometry_msgs.msg import PoseArray
-from rclpy.serialization import serialize_message
-from rosgraph_msgs.msg import Clock as ClockMessage
 from std_msgs.msg import Float64MultiArray
 from visualization_msgs.msg import MarkerArray
 
-from pool_sim.ros.messages import scene_markers, SphereMessages, stamp_nanoseconds, stamp_of
-from pool_sim.ros.publishing import Published
+from pool_sim.ros.clock import next_instant, steps_to_instant
+from pool_sim.ros.messages import SphereMessages, stamp_nanoseconds
+from pool_sim.ros.publishing import clock_instant, Published, scene_markers_instant
 
 
 def node_topic(node_name: str, topic: str, namespace: str = '/') -> str:
@@ -29,7 +26,6 @@ class HeadlessTopics:
         self.messages = SphereMessages(scene.sphere_names, scene['frame_id'], odometry=False)
         self.topic = lambda name: node_topic(node_name, name, namespace)
         self.listeners = []
-        self.publishes = 0
 
     def listen(self, listener):
         """Call listener(Published) after each instant, as StatePublishing.listen."""
@@ -40,17 +36,11 @@ class HeadlessTopics:
             listener(published)
 
     def publish_scene_markers(self, simulation):
-        data = serialize_message(scene_markers(simulation.environment.pool,
-                                               self.scene['water.surface_z'],
-                                               self.scene['frame_id']))
-        self._tell(Published(simulation.time, stamp_nanoseconds(simulation.time),
-                             ((self.topic('scene_markers'), MarkerArray, data),)))
+        self._tell(scene_markers_instant(self.topic('scene_markers'), simulation, self.scene))
 
     def publish_clock(self, simulation):
         if self.scene['publish_clock']:
-            data = serialize_message(ClockMessage(clock=stamp_of(simulation.time)))
-            self._tell(Published(simulation.time, stamp_nanoseconds(simulation.time),
-                                 (('/clock', ClockMessage, data),)))
+            self._tell(clock_instant('/clock', simulation.time))
 
     def publish_state(self, simulation):
         """The present instant's state topics. As the node's, the Published carries the
@@ -61,7 +51,6 @@ class HeadlessTopics:
         sent = ((self.topic('poses'), PoseArray, self.messages.poses.to_bytes()),
                 (self.topic('markers'), MarkerArray, self.messages.markers.to_bytes()),
                 (self.topic('states'), Float64MultiArray, self.messages.states_bytes()))
-        self.publishes += 1
         self._tell(Published(simulation.time, stamp_nanoseconds(simulation.time), sent,
                              spheres))
 
@@ -79,11 +68,8 @@ class HeadlessTopics:
             on_instant(simulation)
         next_publish = simulation.time + period
         while next_publish <= end + 1e-9:
-            steps = max(math.ceil((next_publish - 1e-9 - simulation.time) / dt), 1)
-            simulation.run(steps, dt)
-            next_publish += period
-            if next_publish <= simulation.time:
-                next_publish = simulation.time + period
+            simulation.run(steps_to_instant(next_publish, simulation.time, dt), dt)
+            next_publish = next_instant(next_publish, period, simulation.time)
             self.publish_state(simulation)
             self.publish_clock(simulation)
             if on_instant is not None:

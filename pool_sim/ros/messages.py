@@ -234,12 +234,17 @@ def pool_edges(low, high) -> list:
             for corner in (corners[a], corners[b])]
 
 
+def water_top(low, high, surface_z) -> float:
+    """The height (m) the water is drawn up to: its surface, clipped to the pool."""
+    return min(max(surface_z, low[2]), high[2])
+
+
 def water_box(low, high, surface_z):
     """(centre, size), each (x, y, z) m, of the water: the pool up to the surface, clipped
     to the pool (at least 1 um tall, so a drawing of it stays valid)."""
-    water_top = min(max(surface_z, low[2]), high[2])
-    centre = (0.5 * (low[0] + high[0]), 0.5 * (low[1] + high[1]), 0.5 * (low[2] + water_top))
-    return centre, (high[0] - low[0], high[1] - low[1], max(water_top - low[2], 1e-6))
+    top = water_top(low, high, surface_z)
+    centre = (0.5 * (low[0] + high[0]), 0.5 * (low[1] + high[1]), 0.5 * (low[2] + top))
+    return centre, (high[0] - low[0], high[1] - low[1], max(top - low[2], 1e-6))
 
 
 def scene_markers(pool, surface_z, frame_id) -> MarkerArray:

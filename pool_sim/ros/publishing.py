@@ -43,6 +43,22 @@ class Published(NamedTuple):
     again: bool = False
 
 
+def scene_markers_instant(topic, simulation, scene) -> Published:
+    """The pool and the water as `topic` publishes them, serialized, at the simulation's
+    time (the node's and headless's alike)."""
+    data = serialize_message(scene_markers(simulation.environment.pool,
+                                           scene['water.surface_z'], scene['frame_id']))
+    return Published(simulation.time, stamp_nanoseconds(simulation.time),
+                     ((topic, MarkerArray, data),))
+
+
+def clock_instant(topic, simulated_s) -> Published:
+    """/clock at simulated_s, serialized once for DDS and the listeners alike."""
+    data = serialize_message(ClockMessage(clock=stamp_of(simulated_s)))
+    return Published(simulated_s, stamp_nanoseconds(simulated_s),
+                     ((topic, ClockMessage, data),))
+
+
 class StatePublishing:
     """The publishers of `node` and what they send; the node's scene and simulation are read
     at each publish. lockstep: the node's Lockstep (in lockstep every controller gets every
@@ -113,22 +129,18 @@ class StatePublishing:
     def publish_scene_markers(self):
         """The pool and the water, once (transient-local keeps them for late joiners); the
         listeners hear them too."""
-        scene, simulation = self.node.scene, self.node.simulation
-        data = serialize_message(scene_markers(simulation.environment.pool,
-                                               scene['water.surface_z'], scene['frame_id']))
-        self.scene_markers.publish(data)
-        self._tell(Published(simulation.time, stamp_nanoseconds(simulation.time),
-                             ((self.scene_markers.topic_name, MarkerArray, data),)))
+        instant = scene_markers_instant(self.scene_markers.topic_name, self.node.simulation,
+                                        self.node.scene)
+        self.scene_markers.publish(instant.messages[0][2])
+        self._tell(instant)
 
     def publish_clock(self):
         """/clock at the simulation's time, when the scene asks for it."""
         if self.clock is None:
             return
-        simulated_s = self.node.simulation.time
-        data = serialize_message(ClockMessage(clock=stamp_of(simulated_s)))
-        self.clock.publish(data)  # serialized once, for DDS and the listeners alike
-        self._tell(Published(simulated_s, stamp_nanoseconds(simulated_s),
-                             ((self.clock.topic_name, ClockMessage, data),)))
+        instant = clock_instant(self.clock.topic_name, self.node.simulation.time)
+        self.clock.publish(instant.messages[0][2])
+        self._tell(instant)
 
     def publish_state(self, new_listeners=False):
         """The present instant on every state topic (and odometry where listened to).
