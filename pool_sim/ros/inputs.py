@@ -45,7 +45,7 @@ class Applied(NamedTuple):
 class Pending(NamedTuple):
     """An input waiting for the next tick."""
     value: object  # what is applied: a Wrench, or the ~/forces Float64MultiArray
-    received: Applied
+    received: Applied  # None when nothing listened as it came
 
 
 class ForceInputs:
@@ -139,7 +139,11 @@ class ForceInputs:
         if self.on_answer is not None:
             self.on_answer()
 
-    def _received(self, topic, message_type, message) -> Applied:
+    def _received(self, topic, message_type, message):
+        """The Applied its listeners will hear, or None when none listens (no work on the
+        executor's thread for a recording that is off)."""
+        if not self.listeners:
+            return None
         # Read without the node's lock: a float read whole, at most one tick stale.
         return Applied(stamp_nanoseconds(self.node.simulation.time), topic, message_type,
                        message)
@@ -200,7 +204,7 @@ class ForceInputs:
                 applied = self._apply_forces(simulation, value)
             else:
                 applied = self._apply_wrench(simulation, key, value)
-            if applied:
+            if applied and received is not None:
                 for listener in self.listeners:
                     listener(received)
 
