@@ -142,3 +142,13 @@ def test_hostile_headless_flags_are_refused_in_one_line(tmp_path, arguments, wor
     lines = done.stderr.strip().splitlines()
     assert done.returncode == 1 and len(lines) == 1 and words in lines[0], done.stderr
     assert not list(tmp_path.iterdir())  # nothing written
+
+
+def test_headless_in_process_leaves_the_signal_handlers_as_it_found_them(tmp_path):
+    """Found when a later test's child processes ignored SIGTERM: the clean-up's SIG_IGN
+    outlived main() in the calling process."""
+    from pool_sim import headless
+    before = {number: signal.getsignal(number) for number in (signal.SIGINT, signal.SIGTERM)}
+    assert headless.main(['--seconds', '0.1', '--record', str(tmp_path / 'r.mcap')]) == 0
+    assert {number: signal.getsignal(number) for number in before} == before
+    assert signal.getsignal(signal.SIGTERM) is not signal.SIG_IGN

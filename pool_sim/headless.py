@@ -101,6 +101,9 @@ def run_published(args, scene, sim):
     from pool_sim.ros.headless_topics import HeadlessTopics, node_topic
     topics = HeadlessTopics(scene)
     recorder = view = None
+    # Restored at the end: main() is also called in-process (tests, a user's script), and an
+    # ignored signal would outlive it, inherited by every process started after.
+    handlers = {number: signal.getsignal(number) for number in (signal.SIGINT, signal.SIGTERM)}
     try:
         signal.signal(signal.SIGTERM, _interrupt)
         try:
@@ -131,6 +134,8 @@ def run_published(args, scene, sim):
         if view is not None:
             view.close()
             print(f'pool_sim.headless: {view.report()}', file=sys.stderr)
+        for number, handler in handlers.items():
+            signal.signal(number, handler)
     return 0
 
 
