@@ -19,7 +19,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from .contact import ContactParameters
-from .contacts import DEFAULT_SOLVER, SOLVERS
+from .contacts import DEFAULT_SOLVER, soft_step, SOLVERS
 from .effects import DEFAULT_EFFECTS, EFFECTS
 from .integrators import DEFAULT_INTEGRATOR, INTEGRATORS
 from .spheres import (check_number, check_sphere_name, check_vector, InvalidInput,
@@ -97,9 +97,23 @@ GLOBAL_KEYS = {
     'contact_solver': Key('string', DEFAULT_SOLVER, 'how sphere-sphere contacts (the '
                           'collisions effect) are resolved',
                           allowed=(lambda v: v in SOLVERS, f'one of {sorted(SOLVERS)}')),
+    'soft_step.substeps': Key('integer', soft_step.SUBSTEPS, 'substeps of the soft_step '
+                              'contact solver per step', 1, 64),
+    'soft_step.stiffness_hz': Key('number', soft_step.STIFFNESS_HZ, 'soft_step: a '
+                                  "contact's stiffness as its frequency, Hz (held below a "
+                                  'quarter of the substep rate)', 0.01, 1e6, 'Hz'),
+    'soft_step.damping_ratio': Key('number', soft_step.DAMPING_RATIO, "soft_step: a "
+                                   "contact's damping ratio (1: critical)", 0.0, 1e3),
+    'soft_step.push_out_speed': Key('number', soft_step.PUSH_OUT_SPEED, 'soft_step: the '
+                                    'fastest an overlap is pushed apart, m/s', 0.0, 1e3,
+                                    'm/s'),
     'physics_rate_hz': Key('number', 200.0, 'physics steps per simulated second',
                            *PHYSICS_RATE_RANGE, 'Hz'),
 }
+
+# The soft_step solver's settings, in the order it takes them (contacts/soft_step.py).
+SOLVER_SETTINGS = ('soft_step.substeps', 'soft_step.stiffness_hz', 'soft_step.damping_ratio',
+                   'soft_step.push_out_speed')
 
 SPHERE_KEYS = {
     'mass': Key('number', 1.0, 'mass, kg', *MASS_RANGE_KG, 'kg'),

@@ -9,13 +9,14 @@ import time
 
 import numpy as np
 
-from .contacts import workspace as collision_workspace
+from .contacts import contact_memory, SOLVES_FACES, workspace as collision_workspace
 from .kernels.effects import heave_added_masses
 from .kernels.layout import properties_of
 from .media import cap_volume_integral, linear_volume_integral
-from .schema import GLOBAL_KEYS
+from .schema import GLOBAL_KEYS, SOLVER_SETTINGS
 from .spheres import InvalidInput, shown
 from .stability import stable_step_bound
+from .contacts.memory import memory_capacity
 from .stepper import environment_array, Stepper
 
 VOLUME_INTEGRALS = {'cap': cap_volume_integral, 'linear': linear_volume_integral}
@@ -58,7 +59,14 @@ class Simulation:
         pool = self.environment.pool
         self._constants = (environment_array(self.environment),
                            np.concatenate([pool.corner_min, pool.corner_max]).astype(float),
-                           np.array(dataclasses.astuple(self.contact_parameters), dtype=float))
+                           np.array(dataclasses.astuple(self.contact_parameters), dtype=float),
+                           np.array([scene[key] for key in SOLVER_SETTINGS], dtype=float))
+        # What the contact solver remembers between steps (contacts/memory.py), and each
+        # sphere's identity it is keyed by: unique over the run, kept by a sphere that
+        # change_spheres carries over, never handed to another.
+        self._remembers = ('collisions' in scene['effects']
+                           and scene['contact_solver'] in SOLVES_FACES)
+        self._memory = None
         self.reset()
 
     def reset(self):
@@ -66,6 +74,20 @@ class Simulation:
         self.spheres = (self.scene.build_spheres() if self.initial_spheres is None
                         else self.initial_spheres.copy())
         self.time = 0.0
+        self._memory = None  # a reset forgets every contact
+        self._identities, self._next_identity = {}, 0
+        self._identify()
+
+    def _identify(self):
+        """Each sphere's identity (int64, in sphere order): its old one if it has one, else
+        the next never used."""
+        identities = self._identities
+        for name in self.spheres.names:
+            if name not in identities:
+                identities[name] = self._next_identity
+                self._next_identity += 1
+        self._identity = np.array([identities[name] for name in self.spheres.names],
+                                  dtype=np.int64)
 
     def step(self, dt=None):
         """One step of dt seconds (default: max_step)."""
@@ -86,9 +108,14 @@ class Simulation:
                              np.zeros(spheres.count, dtype=np.uint8),
                              *collision_workspace(spheres.count if 'collisions' in
                                                   self.scene['effects'] else 0))
+        if self._memory is None or self._memory[0].size != memory_capacity(
+                spheres.count if self._remembers else 0):
+            self._memory = contact_memory(spheres.count if self._remembers else 0,
+                                          self._memory)
         arrays = (spheres.position, spheres.velocity, *properties_of(spheres),
                   *self._constants)
-        put_back = self.stepper.run(arrays, self._scratch, int(steps), dt)
+        put_back = self.stepper.run(arrays, (*self._scratch, self._identity, *self._memory),
+                                    int(steps), dt)
         if put_back:
             failed = self._scratch[3]
             indices = np.flatnonzero(failed)
@@ -192,6 +219,10 @@ class Simulation:
                              for i, step in self._failed_step.items()
                              if old_names[i] in new_index}
         self.scene, self.initial_spheres, self.spheres = scene, None, spheres
+        # Identities of spheres removed are retired (a later sphere of that name is another).
+        self._identities = {name: self._identities[name] for name in old_names
+                            if name in new_index}
+        self._identify()
 
     def sphere_state(self, name):
         """(position (3,), velocity (3,)) copies for one sphere, m and m/s."""

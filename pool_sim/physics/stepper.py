@@ -18,7 +18,9 @@ all. Each step is two passes over the spheres (three with collisions):
    flagged. A step reads one pair of state arrays and writes the other, so the step's
    start is still there for them without a copy of every sphere;
 3. with `collisions` listed, sphere-sphere contact over all spheres (contacts/), which
-   needs both the step's start and its end.
+   needs both the step's start and its end. A solver that resolves its spheres' faces
+   itself (contacts.SOLVES_FACES: soft_step) runs before the second pass, from the smooth
+   step's own end, and clears its spheres' marks.
 
 Compiled functions are cached on disk (numba's cache, beside this file or in the user's
 cache directory when that is not writable), each configuration under a name that carries it
@@ -33,7 +35,7 @@ import types
 import numba
 import numpy as np
 
-from .contacts import DEFAULT_SOLVER, SOLVERS
+from .contacts import DEFAULT_SOLVER, SOLVERS, SOLVES_FACES
 from .effects import effect_flags
 from .integrators import INTEGRATORS
 from .kernels import compiled
@@ -58,7 +60,7 @@ _SOURCES = sorted({path for pattern in _SOURCE_PATTERNS
                    for path in pathlib.Path(__file__).parent.glob(pattern)})
 SOURCE_DIGEST = hashlib.sha256(b''.join(path.read_bytes() for path in _SOURCES)).hexdigest()[:16]
 # The contact solver run_steps calls: each configuration's copy has its own (_compose).
-solve_collisions = SOLVERS[DEFAULT_SOLVER]
+_solve_collisions = SOLVERS[DEFAULT_SOLVER]
 
 # Below this many spheres launching the parallel loop costs more than vectorising saves.
 # A launch costs ~5 us with the OpenMP or TBB threading layer and ~100 us with numba's own
@@ -129,11 +131,13 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
     variable: numba folds each branch on it away). source_digest, with the configuration,
     names the function, which is what numba's cache tells functions apart by."""
     each_sphere = numba.prange if parallel else range
+    solver_first = has_collisions and contact_solver in SOLVES_FACES
 
     def run_steps(position, velocity, mass, radius, volume, cross_section, drag_coefficient,
                   lift_coefficient, lift_area, lift_normal, external_force, lift_slope,
-                  stall_angle, environment, pool, contact, spare_position, spare_velocity,
-                  flagged, failed, collision_reals, collision_wholes, steps, dt):
+                  stall_angle, environment, pool, contact, solver_settings, spare_position,
+                  spare_velocity, flagged, failed, collision_reals, collision_wholes,
+                  identity, memory_keys, memory_forces, memory_count, steps, dt):
         """Take `steps` steps of dt s in place; returns how many times the step guard put a
         sphere back (flagged in failed (n,), which must be zero on entry).
 
@@ -194,16 +198,21 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                 mark = 0 if finite(s) & inside else 1
                 flagged[i] = mark
                 marked += mark
-            put_back += _faces_and_guard(
-                listed, has_contact, has_friction, world, faces, contact_parameters, radius,
-                properties, old_position, old_velocity, new_position, new_velocity, flagged,
-                marked, failed, dt)
-            if has_collisions:
-                put_back += solve_collisions(
-                    old_position, old_velocity, new_position, new_velocity, mass, radius,
-                    faces, has_contact, contact_parameters, has_friction,
-                    resting_speed, gravity_step, floor_supports, failed, collision_reals,
-                    collision_wholes, dt)
+            # Stage 1, faces and the guard; a solver of its spheres' faces before it (stage
+            # 0), any other after (stage 2).
+            for stage in range(3):
+                if stage == 1:
+                    put_back += _faces_and_guard(
+                        listed, has_contact, has_friction, world, faces, contact_parameters,
+                        radius, properties, old_position, old_velocity, new_position,
+                        new_velocity, flagged, marked, failed, dt)
+                elif has_collisions and (stage == 0) == solver_first:
+                    put_back += _solve_collisions(
+                        old_position, old_velocity, new_position, new_velocity, mass, radius,
+                        faces, has_contact, contact_parameters, has_friction, resting_speed,
+                        gravity_step, floor_supports, failed, collision_reals,
+                        collision_wholes, dt, flagged, identity, memory_keys, memory_forces,
+                        memory_count, solver_settings)
         if steps % 2 == 1:  # the last step wrote the spare pair
             for i in range(count):
                 for axis in range(3):
@@ -222,7 +231,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
     name = (f'run_steps_{INTEGRATORS_BY_CODE[integrator_code]}_{flags}_{contact_solver}_'
             f'{"parallel" if parallel else "plain"}_{source_digest}')
     configured = types.FunctionType(
-        run_steps.__code__, {**globals(), 'solve_collisions': SOLVERS[contact_solver]}, name,
+        run_steps.__code__, {**globals(), '_solve_collisions': SOLVERS[contact_solver]}, name,
         None, run_steps.__closure__)
     configured.__qualname__ = name
     return numba.njit(cache=True, nogil=True, error_model='numpy', parallel=parallel)(
@@ -269,7 +278,8 @@ class Stepper:
     def run(self, arrays, scratch, steps, dt):
         """`steps` steps of dt s on arrays (the kernel's leading arguments, as
         Simulation packs them) with scratch = (spare_position, spare_velocity, flagged,
-        failed, collision_reals, collision_wholes).
+        failed, collision_reals, collision_wholes, identity, memory_keys, memory_forces,
+        memory_count).
 
         Returns how many times the guard put a sphere back."""
         global _threading_layer

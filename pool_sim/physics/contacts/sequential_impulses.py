@@ -67,7 +67,8 @@ _NX, _NY, _NZ, _ALLOWED, _EXCESS, _RESTING, _CLOSING, _REDUCED_MASS = range(8)
 @numba.njit(error_model='numpy')
 def resolve_collisions(old_position, old_velocity, position, velocity, mass, radius, faces,
                        has_faces, contact, has_friction, resting_speed, gravity_step,
-                       floor_supports, failed, reals, wholes, dt):
+                       floor_supports, failed, reals, wholes, dt, flagged, identity,
+                       memory_keys, memory_forces, memory_count, settings):
     """Find and resolve this step's sphere-sphere contacts in place (position, velocity:
     the step's end; old_*: its start). faces: the pool's (min_x, min_y, min_z, max_x,
     max_y, max_z) when has_faces. contact: (restitution, static_friction,
@@ -77,7 +78,9 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
 
     Returns how many spheres the step guard put back (flagged in failed): a sphere the
     impulses left non-finite goes back to the step's start, at rest. reals, wholes: the
-    scratch its arrays come from (see workspace; empty ones will do)."""
+    scratch its arrays come from (see workspace; empty ones will do). flagged, identity,
+    memory_*, settings: what soft_step.resolve_collisions takes; this solver remembers
+    nothing from step to step and leaves them be."""
     if radius.size < 2:
         return 0
     contacts, used_real, used_whole = detect_contacts(old_position, old_velocity, position,

@@ -1,0 +1,432 @@
+"""Soft step (after Box2D v3, Catto 2024): a contact solver of the `collisions` effect
+(SOLVERS in contacts/__init__.py) that remembers each contact's impulse from one step to
+the next. For the spheres in contact with another (detection.py finds the pairs), every
+step:
+
+1. Contacts: the sphere pairs, and each such sphere's floor, walls and ceiling within half
+   its radius of its path as static contacts (a partner of infinite mass at rest; a
+   sphere touching no other keeps the per-sphere face rule, kernels/faces.py). Each is
+   keyed by the identities of its two spheres (or its sphere and face), never by index or
+   cell: a spawn or a remove cannot hand one pair's impulse to another.
+2. Warm start: the keys are sorted (numpy's sort) and merged with last step's, also
+   sorted, so a contact that persists starts from the force it carried (stored per
+   second, so a change of step size scales it); its friction is turned into the new
+   tangent plane.
+3. Colours: greedily, so that no two contacts of a colour share a sphere (static
+   partners do not count); contacts are swept colour by colour in a fixed order, which
+   is then also a legal parallel order.
+4. Substeps (soft_step.substeps of them): the smooth step's own velocity change (gravity,
+   buoyancy, drag, ...) in equal parts, the remembered impulses applied, a solve with
+   soft constraints (an implicit spring-damper per contact, soft_step.stiffness_hz and
+   soft_step.damping_ratio, its push-out no faster than soft_step.push_out_speed), the
+   positions moved, and a relax pass without the spring's bias. A contact still apart
+   may close no more than its gap (speculative). Friction is Coulomb's on the
+   *accumulated* impulse (within mu_s x the normal one it sticks, else mu_k x it).
+5. Restitution, once at the end: a contact that pushed and approached at the step's
+   start faster than RESTING_FACTOR x |g| dt leaves at restitution x that approach (the
+   approach before the step's own gravity: bouncing that would add energy).
+
+Impulses are equal and opposite (momentum is kept to rounding). Point masses do not spin:
+friction slows relative sliding, nothing rolls.
+"""
+import math
+
+import numba
+import numpy as np
+
+from ..kernels.step_guard import finite, put_back
+from .colouring import colour_contacts
+from .detection import detect_contacts, take, END_POSITION, END_VELOCITY, RADIUS, \
+    START_POSITION, START_VELOCITY
+
+# Scene keys' defaults (schema.py gives their ranges): chosen in results/collisions.
+SUBSTEPS = 4
+STIFFNESS_HZ = 120.0
+DAMPING_RATIO = 10.0
+PUSH_OUT_SPEED = 0.5  # m/s
+# The contact's own frequency is held below this fraction of the substep rate (Box2D's
+# quarter): stiffer than that an implicit spring only rings.
+_MOST_HZ_PER_SUBSTEP_RATE = 0.25
+# A face is a contact of a sphere's within this fraction of its radius of its path.
+_FACE_REACH = 0.5
+# A restitution pass bounces an approach faster than this x |g| dt only (slower ones rest).
+RESTING_FACTOR = 2.0
+# Columns of a contact's row: normal (unit, from the second toward the first), the gap
+# along it at the step's start (m), the effective mass (kg), the approach at the step's
+# start (m/s, negative closing), the accumulated normal impulse (N s), friction impulse
+# (3, N s), the most normal impulse any pass gave, mu_s, mu_k, and its spring's bias rate
+# (1/s), mass scale and impulse scale (soft_coefficients).
+(_NX, _NY, _NZ, _GAP, _MASS, _APPROACH, _NORMAL, _FX, _FY, _FZ, _MOST, _MU_S, _MU_K, _BIAS_RATE,
+ _MASS_SCALE, _IMPULSE_SCALE) = range(16)
+_COLUMNS = 16  # two cache lines a contact
+# A contact stiffens with the load it carried last step, up to a quarter of the substep
+# rate, toward the spring that load would press no more than this fraction of the smaller
+# radius: at 120 Hz a column of heavy spheres on a light one sank 21 % of its radius into
+# it (10 000 spheres landing), at the quarter 7.6 %. Real contacts stiffen under load too
+# (Hertz: F ~ d^1.5). Beyond the quarter (twice it, tried) the landed pile jittered: rms
+# 0.12 m/s after 10 s against 0.01.
+LOADED_OVERLAP = 0.002
+# Identity keys: the pair's identities in the high and low 32 bits (smaller first); a
+# sphere and a face: its identity, then _FACE_KEY + the face (0-5: low x, y, z, high).
+_FACE_KEY = (1 << 32) - 8
+
+
+@numba.njit(error_model='numpy', inline='always')
+def soft_coefficients(stiffness_hz, damping_ratio, h):
+    """(bias rate 1/s, mass scale, impulse scale) of an implicit spring-damper of
+    stiffness_hz and damping_ratio over a substep of h s (Box2D's b2MakeSoft)."""
+    omega = 2.0 * math.pi * stiffness_hz
+    a1 = 2.0 * damping_ratio + h * omega
+    a2 = h * omega * a1
+    a3 = 1.0 / (1.0 + a2)
+    return omega / a1, a2 * a3, a3
+
+
+@numba.njit(error_model='numpy', inline='always')
+def solve_contact(rows, s, a, b, velocity, moved, inverse_mass, push_out_speed, use_bias,
+                  inverse_h):
+    """One contact (rows[s]: its _COLUMNS; a, b: its spheres' rows in velocity (rows, 4) m/s
+    and moved (rows, 4) m since the step's start; inverse_mass (rows,) 1/kg) solved in
+    place: the normal impulse, soft when use_bias and overlapping (its own spring's
+    coefficients), speculative when apart, then Coulomb friction on the
+    accumulated impulse. The per-contact function of the solver (and of a GPU's)."""
+    nx, ny, nz = rows[s, _NX], rows[s, _NY], rows[s, _NZ]
+    rx = velocity[a, 0] - velocity[b, 0]
+    ry = velocity[a, 1] - velocity[b, 1]
+    rz = velocity[a, 2] - velocity[b, 2]
+    speed = rx * nx + ry * ny + rz * nz  # > 0 separating
+    gap = rows[s, _GAP] + ((moved[a, 0] - moved[b, 0]) * nx + (moved[a, 1] - moved[b, 1]) * ny
+                       + (moved[a, 2] - moved[b, 2]) * nz)
+    bias, mass_scale, impulse_scale = 0.0, 1.0, 0.0
+    if gap > 0.0:
+        bias = gap * inverse_h  # apart: may close its gap in this substep, no more
+    elif use_bias:
+        bias = max(rows[s, _BIAS_RATE] * gap, -push_out_speed)
+        mass_scale, impulse_scale = rows[s, _MASS_SCALE], rows[s, _IMPULSE_SCALE]
+    accumulated = rows[s, _NORMAL]
+    impulse = -rows[s, _MASS] * mass_scale * (speed + bias) - impulse_scale * accumulated
+    total = max(accumulated + impulse, 0.0)
+    impulse = total - accumulated
+    rows[s, _NORMAL] = total
+    rows[s, _MOST] = max(rows[s, _MOST], impulse)
+    wa, wb = inverse_mass[a], inverse_mass[b]
+    rx += (wa + wb) * impulse * nx
+    ry += (wa + wb) * impulse * ny
+    rz += (wa + wb) * impulse * nz
+    fx, fy, fz = impulse * nx, impulse * ny, impulse * nz
+    if rows[s, _MU_S] > 0.0:
+        along = rx * nx + ry * ny + rz * nz
+        tx, ty, tz = rx - along * nx, ry - along * ny, rz - along * nz
+        gx = rows[s, _FX] - rows[s, _MASS] * tx  # the friction that would stop the sliding
+        gy = rows[s, _FY] - rows[s, _MASS] * ty
+        gz = rows[s, _FZ] - rows[s, _MASS] * tz
+        grip = math.sqrt(gx * gx + gy * gy + gz * gz)
+        if grip > rows[s, _MU_S] * total:  # slides: kinetic friction, along the same line
+            scale = rows[s, _MU_K] * total / grip
+            gx, gy, gz = gx * scale, gy * scale, gz * scale
+        fx += gx - rows[s, _FX]
+        fy += gy - rows[s, _FY]
+        fz += gz - rows[s, _FZ]
+        rows[s, _FX], rows[s, _FY], rows[s, _FZ] = gx, gy, gz
+    velocity[a, 0] += wa * fx
+    velocity[a, 1] += wa * fy
+    velocity[a, 2] += wa * fz
+    velocity[b, 0] -= wb * fx
+    velocity[b, 1] -= wb * fy
+    velocity[b, 2] -= wb * fz
+
+
+@numba.njit(error_model='numpy', inline='always')
+def restitute_contact(rows, s, a, b, velocity, inverse_mass, threshold, restitution):
+    """The restitution pass for one contact (see solve_contact for the arguments): one that
+    pushed and approached faster than threshold m/s leaves at restitution x that."""
+    approach = rows[s, _APPROACH]
+    if approach > -threshold or rows[s, _MOST] == 0.0:
+        return
+    nx, ny, nz = rows[s, _NX], rows[s, _NY], rows[s, _NZ]
+    speed = ((velocity[a, 0] - velocity[b, 0]) * nx + (velocity[a, 1] - velocity[b, 1]) * ny
+             + (velocity[a, 2] - velocity[b, 2]) * nz)
+    accumulated = rows[s, _NORMAL]
+    total = max(accumulated - rows[s, _MASS] * (speed + restitution * approach), 0.0)
+    impulse = total - accumulated
+    rows[s, _NORMAL] = total
+    wa, wb = inverse_mass[a], inverse_mass[b]
+    velocity[a, 0] += wa * impulse * nx
+    velocity[a, 1] += wa * impulse * ny
+    velocity[a, 2] += wa * impulse * nz
+    velocity[b, 0] -= wb * impulse * nx
+    velocity[b, 1] -= wb * impulse * ny
+    velocity[b, 2] -= wb * impulse * nz
+
+
+@numba.njit(error_model='numpy')
+def resolve_collisions(old_position, old_velocity, position, velocity, mass, radius, faces,
+                       has_faces, contact, has_friction, resting_speed, gravity_step,
+                       floor_supports, failed, reals, wholes, dt, flagged, identity, memory_keys,
+                       memory_forces, memory_count, settings):
+    """Find and resolve this step's contacts in place (position, velocity: the smooth
+    step's end, before the faces' pass; old_*: the step's start); the arguments as
+    sequential_impulses.resolve_collisions takes them, and: flagged (n,) uint8, cleared for
+    the spheres solved here (their faces are solved here too); identity (n,) int64, each
+    sphere's, unique over the run; memory_keys (capacity,) int64, memory_forces
+    (capacity, 4) (normal N, friction (3) N) and memory_count (1,) int64: last step's
+    contacts, sorted by key, replaced by this step's; settings: (substeps, stiffness_hz,
+    damping_ratio, push_out_speed m/s).
+
+    Returns how many spheres the step guard put back (flagged in failed)."""
+    count = radius.size
+    if count < 2:
+        memory_count[0] = 0
+        return 0
+    contacts, used_real, used_whole = detect_contacts(old_position, old_velocity, position,
+                                                     velocity, radius, dt, reals, wholes)
+    pairs, order = contacts.pairs, contacts.order
+    if pairs.shape[1] == 0:
+        memory_count[0] = 0
+        return 0
+    sphere, row_of, used_whole = _members(pairs, order, count, wholes, used_whole)
+    members = sphere.size
+    ground = members  # a row at rest with no inverse mass: the faces' partner
+    faces_of, total = _face_contacts(sphere, old_position, position, radius, faces, has_faces,
+                                     pairs.shape[1])
+    ends, used_whole = take(wholes, used_whole, 2 * total)
+    ends = ends.reshape((total, 2))
+    keys, used_whole = take(wholes, used_whole, total)
+    for c in range(pairs.shape[1]):
+        a, b = row_of[pairs[0, c]], row_of[pairs[1, c]]
+        ends[c, 0], ends[c, 1] = a, b
+        i, j = identity[sphere[a]], identity[sphere[b]]
+        keys[c] = (min(i, j) << 32) | max(i, j)
+    for f in range(total - pairs.shape[1]):
+        c = pairs.shape[1] + f
+        ends[c, 0], ends[c, 1] = faces_of[f, 0], ground
+        keys[c] = (identity[sphere[faces_of[f, 0]]] << 32) | (_FACE_KEY + faces_of[f, 1])
+    rows, used_real = take(reals, used_real, _COLUMNS * total)
+    rows = rows.reshape((total, _COLUMNS))
+    slot, _ = colour_contacts(ends, ground, wholes, used_whole)
+    sorted_keys = np.argsort(keys)
+    _fill_rows(rows, slot, ends, contacts, faces_of, sphere, ground, old_position,
+               old_velocity, radius, mass, faces, contact, has_friction, settings, dt)
+    _warm_start(rows, slot, keys, sorted_keys, memory_keys, memory_forces, memory_count[0],
+                ends, sphere, radius, settings, dt)
+    velocity_rows, moved, change, inverse_mass = _body_rows(sphere, old_velocity, velocity,
+                                                            mass, settings, reals, used_real)
+    solve_order = np.empty_like(ends)  # each slot's two rows
+    for c in range(total):
+        solve_order[slot[c], 0], solve_order[slot[c], 1] = ends[c, 0], ends[c, 1]
+    _substeps(rows, solve_order, velocity_rows, moved, change, inverse_mass, settings, dt)
+    threshold = RESTING_FACTOR * resting_speed
+    for s in range(total):
+        restitute_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity_rows,
+                          inverse_mass, threshold, contact[0])
+    _remember(rows, slot, keys, sorted_keys, memory_keys, memory_forces, memory_count, settings,
+              dt)
+    put_back_count = 0
+    for k in range(members):
+        i = sphere[k]
+        for axis in range(3):
+            position[axis, i] = old_position[axis, i] + moved[k, axis]
+            velocity[axis, i] = velocity_rows[k, axis]
+        flagged[i] = 0  # its faces are done
+        if failed[i] or finite((position[0, i], position[1, i], position[2, i],
+                                velocity[0, i], velocity[1, i], velocity[2, i])):
+            continue
+        put_back(position, velocity, old_position, failed, i)
+        put_back_count += 1
+    return put_back_count
+
+
+@numba.njit(error_model='numpy')
+def _members(pairs, order, count, wholes, used_whole):
+    """(sphere (members,) int64: the sphere of each row, in cell order; row_of (n,) int64:
+    detection's state row -> our row; used wholes)."""
+    row_of, used_whole = take(wholes, used_whole, count)
+    row_of[:] = -1
+    for c in range(pairs.shape[1]):
+        row_of[pairs[0, c]], row_of[pairs[1, c]] = 0, 0
+    sphere, used_whole = take(wholes, used_whole, count)
+    members = 0
+    for k in range(count):
+        if row_of[k] == 0:
+            row_of[k] = members
+            sphere[members] = order[k]
+            members += 1
+    return sphere[:members], row_of, used_whole
+
+
+@numba.njit(error_model='numpy')
+def _face_contacts(sphere, old_position, position, radius, faces, has_faces, found):
+    """(faces_of (f, 2) int64: each face contact's row and face 0-5; found + f): the faces
+    within _FACE_REACH of a radius of a member's path (start or smooth end)."""
+    members = sphere.size
+    faces_of = np.empty((6 * members if has_faces else 0, 2), dtype=np.int64)
+    f = 0
+    for k in range(members if has_faces else 0):
+        i = sphere[k]
+        r = radius[i]
+        for axis in range(3):
+            low = min(old_position[axis, i], position[axis, i]) - r - faces[axis]
+            high = faces[axis + 3] - r - max(old_position[axis, i], position[axis, i])
+            if low < _FACE_REACH * r:
+                faces_of[f, 0], faces_of[f, 1] = k, axis
+                f += 1
+            if high < _FACE_REACH * r:
+                faces_of[f, 0], faces_of[f, 1] = k, axis + 3
+                f += 1
+    return faces_of[:f], found + f
+
+
+@numba.njit(error_model='numpy')
+def _fill_rows(rows, slot, ends, contacts, faces_of, sphere, ground, old_position,
+               old_velocity, radius, mass, faces, contact, has_friction, settings, dt):
+    """Each contact's row (the _COLUMNS) at its slot, from the step's start; impulses
+    zero and the scene's spring (_warm_start puts last step's impulses in)."""
+    found = contacts.pairs.shape[1]
+    h = dt / settings[0]
+    soft = soft_coefficients(min(settings[1], _MOST_HZ_PER_SUBSTEP_RATE / h), settings[2], h)
+    mu_s = contact[1] if has_friction else 0.0
+    mu_k = contact[2] if has_friction else 0.0
+    rolling = contact[3] if has_friction else 0.0
+    for c in range(ends.shape[0]):
+        s = slot[c]
+        rows[s, :] = 0.0
+        i = sphere[ends[c, 0]]
+        if c < found:
+            j = sphere[ends[c, 1]]
+            nx, ny, nz = (contacts.normal[0, c], contacts.normal[1, c],
+                          contacts.normal[2, c])
+            rows[s, _GAP] = ((old_position[0, i] - old_position[0, j]) * nx
+                             + (old_position[1, i] - old_position[1, j]) * ny
+                             + (old_position[2, i] - old_position[2, j]) * nz
+                             - radius[i] - radius[j])
+            rows[s, _MASS] = 1.0 / (1.0 / mass[i] + 1.0 / mass[j])
+            rows[s, _APPROACH] = ((old_velocity[0, i] - old_velocity[0, j]) * nx
+                                  + (old_velocity[1, i] - old_velocity[1, j]) * ny
+                                  + (old_velocity[2, i] - old_velocity[2, j]) * nz)
+            rows[s, _MU_S], rows[s, _MU_K] = mu_s, mu_k
+        else:
+            face = faces_of[c - found, 1]
+            axis = face % 3
+            inward = 1.0 if face < 3 else -1.0  # the face's normal, into the pool
+            nx, ny, nz = (inward if axis == 0 else 0.0, inward if axis == 1 else 0.0,
+                          inward if axis == 2 else 0.0)
+            rows[s, _GAP] = (old_position[axis, i] - radius[i] - faces[axis] if face < 3
+                             else faces[face] - radius[i] - old_position[axis, i])
+            rows[s, _MASS] = mass[i]
+            rows[s, _APPROACH] = inward * old_velocity[axis, i]
+            # Rolling resistance on a face, as the per-sphere face rule has it.
+            rows[s, _MU_S], rows[s, _MU_K] = mu_s, mu_k + rolling
+        rows[s, _NX], rows[s, _NY], rows[s, _NZ] = nx, ny, nz
+        rows[s, _BIAS_RATE], rows[s, _MASS_SCALE], rows[s, _IMPULSE_SCALE] = soft
+
+
+@numba.njit(error_model='numpy')
+def _warm_start(rows, slot, keys, sorted_keys, memory_keys, memory_forces, remembered,
+                ends, sphere, radius, settings, dt):
+    """Last step's forces (memory_*, its first `remembered`, sorted by key) into the rows
+    of the contacts that persist, as impulses over this step's substep, friction turned
+    into the new tangent plane, the spring stiffened if that load would press it more than
+    LOADED_OVERLAP (ends, sphere, radius: for the smaller radius): a merge of two sorted
+    lists."""
+    h = dt / settings[0]
+    ground = sphere.size
+    j = 0
+    for t in range(sorted_keys.size):
+        c = sorted_keys[t]
+        key = keys[c]
+        while j < remembered and memory_keys[j] < key:
+            j += 1
+        if j == remembered:
+            break
+        if memory_keys[j] != key:
+            continue
+        s = slot[c]
+        nx, ny, nz = rows[s, _NX], rows[s, _NY], rows[s, _NZ]
+        fx, fy, fz = memory_forces[j, 1] * h, memory_forces[j, 2] * h, memory_forces[j, 3] * h
+        along = fx * nx + fy * ny + fz * nz
+        rows[s, _NORMAL] = memory_forces[j, 0] * h
+        rows[s, _FX], rows[s, _FY], rows[s, _FZ] = (fx - along * nx, fy - along * ny,
+                                                    fz - along * nz)
+        a, b = ends[c, 0], ends[c, 1]
+        smaller = radius[sphere[a]] if b == ground else min(radius[sphere[a]],
+                                                            radius[sphere[b]])
+        # The frequency whose spring the load presses LOADED_OVERLAP x smaller.
+        needed = math.sqrt(max(memory_forces[j, 0], 0.0) / (
+            rows[s, _MASS] * LOADED_OVERLAP * smaller)) / (2.0 * math.pi)
+        most = _MOST_HZ_PER_SUBSTEP_RATE / h
+        if needed > min(settings[1], most):
+            soft = soft_coefficients(min(needed, most), settings[2], h)
+            rows[s, _BIAS_RATE], rows[s, _MASS_SCALE], rows[s, _IMPULSE_SCALE] = soft
+
+
+@numba.njit(error_model='numpy')
+def _remember(rows, slot, keys, sorted_keys, memory_keys, memory_forces, memory_count,
+              settings, dt):
+    """This step's contacts, sorted by key, as forces (N) in memory_* for the next step
+    (as many as it holds: the rest start from none)."""
+    per_second = settings[0] / dt
+    kept = min(sorted_keys.size, memory_keys.size)
+    for t in range(kept):
+        c = sorted_keys[t]
+        s = slot[c]
+        memory_keys[t] = keys[c]
+        memory_forces[t, 0] = rows[s, _NORMAL] * per_second
+        memory_forces[t, 1] = rows[s, _FX] * per_second
+        memory_forces[t, 2] = rows[s, _FY] * per_second
+        memory_forces[t, 3] = rows[s, _FZ] * per_second
+    memory_count[0] = kept
+
+
+@numba.njit(error_model='numpy')
+def _body_rows(sphere, old_velocity, velocity, mass, settings, reals, used_real):
+    """(velocity (rows, 4) m/s from the step's start, moved (rows, 4) m since it,
+    change (rows, 4) m/s: the smooth step's velocity change per substep, inverse_mass
+    (rows,) 1/kg) for the members and, last, the ground (at rest, no inverse mass)."""
+    members = sphere.size
+    block, used_real = take(reals, used_real, 13 * (members + 1))
+    velocity_rows = block[:4 * (members + 1)].reshape((members + 1, 4))
+    moved = block[4 * (members + 1):8 * (members + 1)].reshape((members + 1, 4))
+    change = block[8 * (members + 1):12 * (members + 1)].reshape((members + 1, 4))
+    inverse_mass = block[12 * (members + 1):]
+    velocity_rows[:, :] = 0.0
+    moved[:, :] = 0.0
+    change[:, :] = 0.0
+    inverse_mass[members] = 0.0
+    substeps = settings[0]
+    for k in range(members):
+        i = sphere[k]
+        for axis in range(3):
+            velocity_rows[k, axis] = old_velocity[axis, i]
+            change[k, axis] = (velocity[axis, i] - old_velocity[axis, i]) / substeps
+        inverse_mass[k] = 1.0 / mass[i]
+    return velocity_rows, moved, change, inverse_mass
+
+
+@numba.njit(error_model='numpy')
+def _substeps(rows, solve_order, velocity, moved, change, inverse_mass, settings, dt):
+    """The substeps (see the module's docstring, 4) on the rows of resolve_collisions."""
+    substeps = int(settings[0])
+    h = dt / substeps
+    push_out_speed, inverse_h = settings[3], 1.0 / h
+    members, total = velocity.shape[0] - 1, rows.shape[0]
+    for _ in range(substeps):
+        for k in range(members):
+            for axis in range(3):
+                velocity[k, axis] += change[k, axis]
+        for s in range(total):  # the impulses carried in
+            a, b = solve_order[s, 0], solve_order[s, 1]
+            normal = rows[s, _NORMAL]
+            wa, wb = inverse_mass[a], inverse_mass[b]
+            for axis in range(3):
+                impulse = normal * rows[s, _NX + axis] + rows[s, _FX + axis]
+                velocity[a, axis] += wa * impulse
+                velocity[b, axis] -= wb * impulse
+        for s in range(total):
+            solve_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity, moved,
+                          inverse_mass, push_out_speed, True, inverse_h)
+        for k in range(members):
+            for axis in range(3):
+                moved[k, axis] += h * velocity[k, axis]
+        for s in range(total):
+            solve_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity, moved,
+                          inverse_mass, push_out_speed, False, inverse_h)
