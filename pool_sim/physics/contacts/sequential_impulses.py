@@ -78,9 +78,7 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
 
     Returns how many spheres the step guard put back (flagged in failed): a sphere the
     impulses left non-finite goes back to the step's start, at rest. reals, wholes: the
-    scratch its arrays come from (see workspace; empty ones will do). flagged, identity,
-    memory_*, settings: what soft_step.resolve_collisions takes; this solver remembers
-    nothing from step to step and leaves them be."""
+    scratch its arrays come from (see workspace; empty ones will do). The rest: unused."""
     if radius.size < 2:
         return 0
     contacts, used_real, used_whole = detect_contacts(old_position, old_velocity, position,
