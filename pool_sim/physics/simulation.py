@@ -10,13 +10,13 @@ import time
 import numpy as np
 
 from .contacts import contact_memory, SOLVES_FACES, workspace as collision_workspace
+from .contacts.memory import memory_capacity
 from .kernels.effects import heave_added_masses
 from .kernels.layout import properties_of
 from .media import cap_volume_integral, linear_volume_integral
 from .schema import GLOBAL_KEYS, SOLVER_SETTINGS
 from .spheres import InvalidInput, shown
 from .stability import stable_step_bound
-from .contacts.memory import memory_capacity
 from .stepper import environment_array, Stepper
 
 VOLUME_INTEGRALS = {'cap': cap_volume_integral, 'linear': linear_volume_integral}
@@ -108,10 +108,9 @@ class Simulation:
                              np.zeros(spheres.count, dtype=np.uint8),
                              *collision_workspace(spheres.count if 'collisions' in
                                                   self.scene['effects'] else 0))
-        if self._memory is None or self._memory[0].size != memory_capacity(
-                spheres.count if self._remembers else 0):
-            self._memory = contact_memory(spheres.count if self._remembers else 0,
-                                          self._memory)
+        remembered = spheres.count if self._remembers else 0
+        if self._memory is None or self._memory[0].size != memory_capacity(remembered):
+            self._memory = contact_memory(remembered, self._memory)
         arrays = (spheres.position, spheres.velocity, *properties_of(spheres),
                   *self._constants)
         put_back = self.stepper.run(arrays, (*self._scratch, self._identity, *self._memory),
