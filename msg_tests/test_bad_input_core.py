@@ -96,7 +96,7 @@ BAD_SCENES = [
     ({'contact.kinetic_friction': 0.9}, 'contact.kinetic_friction: must not exceed'),
     ({'publish_clock': 'yes'}, 'publish_clock: expected true or false'),
     ({'contact_solver': 'projected_gauss_seidel'},
-     r"contact_solver: must be one of \['sequential_impulses'\]"),
+     r"contact_solver: must be one of \['sequential_impulses', 'soft_step'\]"),
     ({'sphere_names': 'a'}, 'sphere_names: expected a list of strings'),
     ({'sphere_names': ['a', 'a']}, 'sphere_names: names must be unique'),
     ({'sphere_names': ['a.b']}, 'sphere_names: .* is not a valid ROS name token'),
