@@ -11,7 +11,13 @@ all. Each step is two passes over the spheres (three with collisions):
    loop's arrays do not alias and tells LLVM so, which then computes four spheres at once
    (packed square roots and divisions) where a plain loop stays scalar. It marks each
    sphere on or past a face or not finite in a byte stored for every sphere, and counts
-   them in an integer reduction (a conditional store would stop the vectorising);
+   them in an integer reduction (a conditional store would stop the vectorising).
+   With wave_radiation and the default integrator, the parallel build leaves the waves
+   out of this pass where few spheres cross the surface (fewer than one in
+   DENSE_BAND_SHARE): their table look-ups, vectorised, cost every sphere, though only
+   those crossing the surface feel them. It marks the crossing spheres too, and a pass over
+   them alone takes their step again with the waves. Away from the surface the two steps
+   are the same to the bit, so the result does not depend on which way a step went;
 2. contacts and the step guard for the spheres the first pass marked (on or past a face,
    or not finite), a plain loop with branches: a sphere the step left non-finite (or whose
    bounce would not fit a double) goes back to where that step began, at rest, and is
@@ -39,7 +45,8 @@ from .contacts import DEFAULT_SOLVER, SOLVERS, SOLVES_FACES
 from .effects import effect_flags
 from .integrators import INTEGRATORS
 from .kernels import compiled
-from .kernels.effects import heave_radiation, inertia, water_fraction, water_taken_on
+from .kernels.effects import heave_radiation, inertia, near_surface, water_fraction, \
+    water_taken_on
 from .kernels.faces import resolve_contacts
 from .kernels.integrators import explicit_euler, linearly_implicit_euler, rk4, \
     semi_implicit_euler, velocity_verlet
@@ -53,6 +60,13 @@ _EXPLICIT_EULER, _SEMI_IMPLICIT_EULER = (INTEGRATOR_CODES['explicit_euler'],
                                          INTEGRATOR_CODES['semi_implicit_euler'])
 _VELOCITY_VERLET, _RK4 = INTEGRATOR_CODES['velocity_verlet'], INTEGRATOR_CODES['rk4']
 _LINEARLY_IMPLICIT_EULER = INTEGRATOR_CODES['linearly_implicit_euler']
+# The first pass's marks in flagged: on or past a face or not finite (the second pass's),
+# near the water's surface (the wave-band pass's).
+_FACE_MARK, _BAND_MARK = 1, 2
+# Past one sphere in this many crossing the surface, the first pass computes wave radiation
+# for every sphere (vectorised) rather than leave the crossing ones to a pass of their own,
+# which computes one sphere at a time (about four times the cost per sphere).
+DENSE_BAND_SHARE = 12
 # Every file the compiled loop is made of, found by pattern so that no new one is missed:
 # an edit to any of them compiles the loop afresh.
 _SOURCE_PATTERNS = ('stepper.py', 'kernels/**/*.py', 'contacts/**/*.py')
@@ -85,6 +99,66 @@ def parallel_from_spheres():
     layer (taken to be OpenMP's until our first launch shows which it is)."""
     return PARALLEL_FROM_SPHERES.get(_threading_layer or 'omp',
                                      PARALLEL_FROM_SPHERES['workqueue'])
+
+
+@compiled
+def _integrate(integrator_code, listed, env, body, start, start_velocity, dt):
+    """One smooth step of one sphere by the integrator of integrator_code (a constant where
+    it is inlined, so the other branches fold away): (x, y, z, vx, vy, vz)."""
+    if integrator_code == _EXPLICIT_EULER:
+        return explicit_euler(listed, env, body, start, start_velocity, dt)
+    if integrator_code == _SEMI_IMPLICIT_EULER:
+        return semi_implicit_euler(listed, env, body, start, start_velocity, dt)
+    if integrator_code == _VELOCITY_VERLET:
+        return velocity_verlet(listed, env, body, start, start_velocity, dt)
+    if integrator_code == _RK4:
+        return rk4(listed, env, body, start, start_velocity, dt)
+    return linearly_implicit_euler(listed, env, body, start, start_velocity, dt)
+
+
+@compiled
+def _face_mark(has_contact, faces, r, s):
+    """_FACE_MARK for a sphere of radius r (m) that ends the smooth step s on or past a face
+    (with has_contact) or not finite (a NaN position is inside no face either), else 0."""
+    low_x, low_y, low_z, high_x, high_y, high_z = faces
+    # & rather than `and`: no branch for the vectoriser to undo.
+    inside = ((low_x + r < s[0]) & (s[0] < high_x - r) & (low_y + r < s[1])
+              & (s[1] < high_y - r) & (low_z + r < s[2]) & (s[2] < high_z - r)
+              if has_contact else True)
+    return 0 if finite(s) & inside else _FACE_MARK
+
+
+@compiled
+def _smooth_step(integrator_code, listed, band_pass, environment, properties, i,
+                 old_position, old_velocity, new_position, new_velocity, has_contact, faces,
+                 dt):
+    """The first pass for sphere i: its smooth step from the old state arrays (3, n) to the
+    new ones; returns its face mark (_face_mark) and, with band_pass, whether it crosses the
+    surface where it starts, where it is headed or where it ends (1 or 0)."""
+    # Made here, not captured: numba's parallel loop cannot take a namedtuple in.
+    env = env_of(environment)
+    body = body_of(properties, i)
+    start = (old_position[0, i], old_position[1, i], old_position[2, i])
+    start_velocity = (old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
+    s = _integrate(integrator_code, listed, env, body, start, start_velocity, dt)
+    new_position[0, i], new_position[1, i], new_position[2, i] = s[0], s[1], s[2]
+    new_velocity[0, i], new_velocity[1, i], new_velocity[2, i] = s[3], s[4], s[5]
+    crossing = (band_pass and (near_surface(env, body, start[2]) | near_surface(env, body, s[2])
+                               | near_surface(env, body, start[2] + dt * start_velocity[2])))
+    return _face_mark(has_contact, faces, body.radius, s), 1 if crossing else 0
+
+
+@compiled
+def _band_indices(flagged, band):
+    """How many spheres the first pass marked near the surface (_BAND_MARK in flagged
+    (n,)), their indices put in band (n,) in order. A loop of its own: the wave-band pass
+    over every sphere with a branch would be vectorised by computing every sphere."""
+    count = 0
+    for i in range(flagged.shape[0]):
+        if flagged[i] & _BAND_MARK:
+            band[count] = i
+            count += 1
+    return count
 
 
 @compiled
@@ -132,6 +206,14 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
     names the function, which is what numba's cache tells functions apart by."""
     each_sphere = numba.prange if parallel else range
     solver_first = has_collisions and contact_solver in SOLVES_FACES
+    # Wave radiation's table look-ups, which a vectorised loop would pay for every sphere,
+    # are left to a pass over the spheres near the surface (_wave_band); the plain loop
+    # skips them per sphere by a branch. Only for the default integrator, which looks the
+    # table up at the step's start, where it is headed and its end, all three checked: the
+    # others look it up at stages in between.
+    band_pass = (listed.wave_radiation and not listed.scalar
+                 and integrator_code == _LINEARLY_IMPLICIT_EULER)
+    smooth = listed._replace(wave_radiation=False) if band_pass else listed
 
     def run_steps(position, velocity, mass, radius, volume, cross_section, drag_coefficient,
                   lift_coefficient, lift_area, lift_normal, external_force, lift_slope,
@@ -151,7 +233,6 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
         properties = (mass, radius, volume, cross_section, drag_coefficient, lift_coefficient,
                       lift_area, lift_normal, external_force, lift_slope, stall_angle)
         faces = (pool[0], pool[1], pool[2], pool[3], pool[4], pool[5])
-        low_x, low_y, low_z, high_x, high_y, high_z = faces
         contact_parameters = (contact[0], contact[1], contact[2], contact[3])
         gx, gy, gz = world.gravity_x, world.gravity_y, world.gravity_z
         # A rebound slower than gravity adds in one step is resting contact.
@@ -159,6 +240,14 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
         floor_supports = listed.gravity and gz < 0.0  # piles rest on the floor (contacts/)
         gravity_step = (gx * dt, gy * dt, gz * dt) if listed.gravity else (0.0, 0.0, 0.0)
         count = position.shape[1]
+        band = np.empty(count if band_pass else 0, dtype=np.int64)  # see _band_indices
+        dense = False  # the first step's choice, from where the spheres are now
+        if band_pass:
+            near = 0
+            for i in each_sphere(count):
+                near += 1 if near_surface(env_of(environment), body_of(properties, i),
+                                          position[2, i]) else 0
+            dense = near * DENSE_BAND_SHARE > count
         put_back = 0
         for step in range(steps):
             if step % 2 == 0:
@@ -167,37 +256,38 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
             else:
                 old_position, old_velocity = spare_position, spare_velocity
                 new_position, new_velocity = position, velocity
-            marked = 0
-            for i in each_sphere(count):
-                # Made here, not captured: numba's parallel loop cannot take a namedtuple in.
-                env = env_of(environment)
-                body = body_of(properties, i)
-                start = (old_position[0, i], old_position[1, i], old_position[2, i])
-                start_velocity = (old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
-                if integrator_code == _EXPLICIT_EULER:
-                    s = explicit_euler(listed, env, body, start, start_velocity, dt)
-                elif integrator_code == _SEMI_IMPLICIT_EULER:
-                    s = semi_implicit_euler(listed, env, body, start, start_velocity, dt)
-                elif integrator_code == _VELOCITY_VERLET:
-                    s = velocity_verlet(listed, env, body, start, start_velocity, dt)
-                elif integrator_code == _RK4:
-                    s = rk4(listed, env, body, start, start_velocity, dt)
-                else:
-                    s = linearly_implicit_euler(listed, env, body, start, start_velocity, dt)
-                new_position[0, i], new_position[1, i], new_position[2, i] = s[0], s[1], s[2]
-                new_velocity[0, i], new_velocity[1, i], new_velocity[2, i] = s[3], s[4], s[5]
-                # Marked for the second pass: on or past a face (with contact), or not
-                # finite (v * 0 is 0 for a finite v and NaN otherwise; a NaN position is
-                # inside no face either). Stored whatever it is, and counted in an integer
-                # reduction: a conditional store would stop the loop vectorising.
-                r = radius[i]
-                # & rather than `and`: no branch for the vectoriser to undo.
-                inside = ((low_x + r < s[0]) & (s[0] < high_x - r) & (low_y + r < s[1])
-                          & (s[1] < high_y - r) & (low_z + r < s[2]) & (s[2] < high_z - r)
-                          if has_contact else True)
-                mark = 0 if finite(s) & inside else 1
-                flagged[i] = mark
-                marked += mark
+            # Marks stored whatever they are, and counted in integer reductions: a
+            # conditional store would stop the loop vectorising.
+            marked = near = 0
+            if band_pass and dense:  # the waves in the first pass, for every sphere
+                for i in each_sphere(count):
+                    face, crossing = _smooth_step(
+                        integrator_code, listed, band_pass, environment, properties, i,
+                        old_position, old_velocity, new_position, new_velocity, has_contact,
+                        faces, dt)
+                    flagged[i] = face
+                    marked += face
+                    near += crossing
+            else:
+                for i in each_sphere(count):
+                    face, crossing = _smooth_step(
+                        integrator_code, smooth, band_pass, environment, properties, i,
+                        old_position, old_velocity, new_position, new_velocity, has_contact,
+                        faces, dt)
+                    flagged[i] = face | crossing * _BAND_MARK
+                    marked += face
+                    near += crossing
+            # The smooth step again, wave radiation in, for the spheres marked crossing the
+            # surface; their marks become the face mark alone.
+            for k in each_sphere(_band_indices(flagged, band) if band_pass and near > 0
+                                 and not dense else 0):
+                flagged[band[k]] = _smooth_step(
+                    integrator_code, listed, False, environment, properties, band[k],
+                    old_position, old_velocity, new_position, new_velocity, has_contact,
+                    faces, dt)[0]
+            # Where few spheres cross the surface, the next first pass leaves them to the
+            # wave-band pass; where many do, it computes the waves for every sphere.
+            dense = near * DENSE_BAND_SHARE > count
             # Stage 1, faces and the guard; a solver of its spheres' faces before it (stage
             # 0), any other after (stage 2).
             for stage in range(3):

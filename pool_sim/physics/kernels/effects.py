@@ -169,6 +169,14 @@ def explicit_force(listed, env, body, velocity, fraction):
 
 
 @compiled
+def near_surface(env, body, z):
+    """Whether a sphere centred at height z (m) crosses the water's surface: its draft
+    d / r in (0, 2), where heave_radiation is not zero (false for NaN)."""
+    draft = 1.0 + (env.surface_z - z) * body.inverse_radius
+    return (draft > 0.0) & (draft < 2.0)
+
+
+@compiled
 def heave_radiation(listed, env, body, z):
     """(added kg, added_slope kg/m, damping kg/s) of the waves a sphere crossing the surface
     radiates as it heaves: linear potential flow's added mass A33 and radiation damping B33
@@ -185,7 +193,7 @@ def heave_radiation(listed, env, body, z):
     """
     radius, inverse_radius, density = body.radius, body.inverse_radius, env.water_density
     draft = 1.0 + (env.surface_z - z) * inverse_radius  # s = d / r: 0 touching, 2 wholly under
-    inside = (draft > 0.0) & (draft < 2.0)  # false for NaN too
+    inside = near_surface(env, body, z)
     if listed.scalar and not inside:
         return 0.0, 0.0, 0.0
     # In (s, t = mu / (1 + mu)), mu = m / (rho r^3): the added mass a cubic Hermite spline

@@ -140,8 +140,10 @@ def linearly_implicit_euler(listed, env, body, position, velocity, dt):
     weight = 0.5
     inverse_horizontal = 1.0 / horizontal
     if listed.buoyancy:
-        predicted_z = z + 0.5 * dt * (vz + (pz / vertical if listed.wave_radiation
-                                            else pz * inverse_horizontal))
+        # pz / vertical, not pz * inverse_horizontal, though they are equal without the
+        # waves: the step of a sphere away from the surface, wave radiation listed or
+        # not, is then the same to the bit (stepper.py's wave-band pass relies on it).
+        predicted_z = z + 0.5 * dt * (vz + pz / vertical)
         spring = dt * dt * buoyancy_stiffness(listed.cap, env, body, z, predicted_z)
         h_squared = spring / m_z
         weight = 0.5 + 0.5 * h_squared / (4.0 + h_squared)
