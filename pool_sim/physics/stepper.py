@@ -149,6 +149,15 @@ def _smooth_step(integrator_code, listed, band_pass, environment, properties, i,
 
 
 @compiled
+def _crossing(env, properties, position):
+    """How many spheres centred at position (3, n) m cross the water's surface."""
+    near = 0
+    for i in range(position.shape[1]):
+        near += 1 if near_surface(env, body_of(properties, i), position[2, i]) else 0
+    return near
+
+
+@compiled
 def _band_indices(flagged, band):
     """How many spheres the first pass marked near the surface (_BAND_MARK in flagged
     (n,)), their indices put in band (n,) in order. A loop of its own: the wave-band pass
@@ -197,6 +206,19 @@ def _faces_and_guard(listed, has_contact, has_friction, env, faces, contact_para
     return put_back
 
 
+def _band_pass(integrator_code, listed):
+    """Whether run_steps leaves wave radiation to a pass over the spheres crossing the
+    surface (the module's docstring), and the effects its first pass computes.
+
+    The plain loop skips the table look-ups per sphere by a branch; a vectorised one would
+    pay for them for every sphere. Only for the default integrator, which looks the table up
+    at the step's start, where it is headed and its end, all three checked for the marks:
+    the others look it up at stages in between."""
+    band_pass = (listed.wave_radiation and not listed.scalar
+                 and integrator_code == _LINEARLY_IMPLICIT_EULER)
+    return band_pass, listed._replace(wave_radiation=False) if band_pass else listed
+
+
 def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
              contact_solver, parallel, source_digest):
     """The compiled step loop of one configuration (see the module's docstring).
@@ -206,14 +228,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
     names the function, which is what numba's cache tells functions apart by."""
     each_sphere = numba.prange if parallel else range
     solver_first = has_collisions and contact_solver in SOLVES_FACES
-    # Wave radiation's table look-ups, which a vectorised loop would pay for every sphere,
-    # are left to a pass over the spheres near the surface (_wave_band); the plain loop
-    # skips them per sphere by a branch. Only for the default integrator, which looks the
-    # table up at the step's start, where it is headed and its end, all three checked: the
-    # others look it up at stages in between.
-    band_pass = (listed.wave_radiation and not listed.scalar
-                 and integrator_code == _LINEARLY_IMPLICIT_EULER)
-    smooth = listed._replace(wave_radiation=False) if band_pass else listed
+    band_pass, smooth = _band_pass(integrator_code, listed)
 
     def run_steps(position, velocity, mass, radius, volume, cross_section, drag_coefficient,
                   lift_coefficient, lift_area, lift_normal, external_force, lift_slope,
@@ -241,13 +256,8 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
         gravity_step = (gx * dt, gy * dt, gz * dt) if listed.gravity else (0.0, 0.0, 0.0)
         count = position.shape[1]
         band = np.empty(count if band_pass else 0, dtype=np.int64)  # see _band_indices
-        dense = False  # the first step's choice, from where the spheres are now
-        if band_pass:
-            near = 0
-            for i in each_sphere(count):
-                near += 1 if near_surface(env_of(environment), body_of(properties, i),
-                                          position[2, i]) else 0
-            dense = near * DENSE_BAND_SHARE > count
+        # The first step's choice, from where the spheres are now.
+        dense = band_pass and _crossing(world, properties, position) * DENSE_BAND_SHARE > count
         put_back = 0
         for step in range(steps):
             if step % 2 == 0:
