@@ -52,6 +52,8 @@ from .kernels.integrators import explicit_euler, linearly_implicit_euler, rk4, \
     semi_implicit_euler, velocity_verlet
 from .kernels.layout import Body, body_of, Env, env_of, properties_of
 from .kernels.step_guard import finite, put_back as put_back_sphere
+from .kernels.wave_band import BAND_MARK, DENSE_BAND_SHARE, band_scratch, crossing_count, \
+    gather_band, scatter_band
 
 INTEGRATOR_CODES = {name: code for code, name in enumerate(INTEGRATORS)}
 # The codes run_steps dispatches on, by name (its globals: constants when it compiles).
@@ -61,12 +63,9 @@ _EXPLICIT_EULER, _SEMI_IMPLICIT_EULER = (INTEGRATOR_CODES['explicit_euler'],
 _VELOCITY_VERLET, _RK4 = INTEGRATOR_CODES['velocity_verlet'], INTEGRATOR_CODES['rk4']
 _LINEARLY_IMPLICIT_EULER = INTEGRATOR_CODES['linearly_implicit_euler']
 # The first pass's marks in flagged: on or past a face or not finite (the second pass's),
-# near the water's surface (the wave-band pass's).
-_FACE_MARK, _BAND_MARK = 1, 2
-# Past one sphere in this many crossing the surface, the first pass computes wave radiation
-# for every sphere (vectorised) rather than leave the crossing ones to a pass of their own,
-# which computes one sphere at a time (about four times the cost per sphere).
-DENSE_BAND_SHARE = 12
+# crossing the water's surface (the wave-band pass's).
+_FACE_MARK = 1  # BAND_MARK: kernels/wave_band.py
+
 # Every file the compiled loop is made of, found by pattern so that no new one is missed:
 # an edit to any of them compiles the loop afresh.
 _SOURCE_PATTERNS = ('stepper.py', 'kernels/**/*.py', 'contacts/**/*.py')
@@ -146,28 +145,6 @@ def _smooth_step(integrator_code, listed, band_pass, environment, properties, i,
     crossing = (band_pass and (near_surface(env, body, start[2]) | near_surface(env, body, s[2])
                                | near_surface(env, body, start[2] + dt * start_velocity[2])))
     return _face_mark(has_contact, faces, body.radius, s), 1 if crossing else 0
-
-
-@compiled
-def _crossing(env, properties, position):
-    """How many spheres centred at position (3, n) m cross the water's surface."""
-    near = 0
-    for i in range(position.shape[1]):
-        near += 1 if near_surface(env, body_of(properties, i), position[2, i]) else 0
-    return near
-
-
-@compiled
-def _band_indices(flagged, band):
-    """How many spheres the first pass marked near the surface (_BAND_MARK in flagged
-    (n,)), their indices put in band (n,) in order. A loop of its own: the wave-band pass
-    over every sphere with a branch would be vectorised by computing every sphere."""
-    count = 0
-    for i in range(flagged.shape[0]):
-        if flagged[i] & _BAND_MARK:
-            band[count] = i
-            count += 1
-    return count
 
 
 @compiled
@@ -255,9 +232,12 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
         floor_supports = listed.gravity and gz < 0.0  # piles rest on the floor (contacts/)
         gravity_step = (gx * dt, gy * dt, gz * dt) if listed.gravity else (0.0, 0.0, 0.0)
         count = position.shape[1]
-        band = np.empty(count if band_pass else 0, dtype=np.int64)  # see _band_indices
+        scratch = band_scratch(count if band_pass else 0, properties)
+        (_, band_properties, band_start, band_start_velocity, band_end, band_end_velocity,
+         band_marks) = scratch
         # The first step's choice, from where the spheres are now.
-        dense = band_pass and _crossing(world, properties, position) * DENSE_BAND_SHARE > count
+        dense = (band_pass and crossing_count(world, properties, position) * DENSE_BAND_SHARE
+                 > count)
         put_back = 0
         for step in range(steps):
             if step % 2 == 0:
@@ -266,8 +246,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
             else:
                 old_position, old_velocity = spare_position, spare_velocity
                 new_position, new_velocity = position, velocity
-            # Marks stored whatever they are, and counted in integer reductions: a
-            # conditional store would stop the loop vectorising.
+            # Marks stored and counted in reductions (a conditional store stops vectorising).
             marked = near = 0
             if band_pass and dense:  # the waves in the first pass, for every sphere
                 for i in each_sphere(count):
@@ -284,19 +263,20 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                         integrator_code, smooth, band_pass, environment, properties, i,
                         old_position, old_velocity, new_position, new_velocity, has_contact,
                         faces, dt)
-                    flagged[i] = face | crossing * _BAND_MARK
+                    flagged[i] = face | crossing * BAND_MARK
                     marked += face
                     near += crossing
             # The smooth step again, wave radiation in, for the spheres marked crossing the
             # surface; their marks become the face mark alone.
-            for k in each_sphere(_band_indices(flagged, band) if band_pass and near > 0
-                                 and not dense else 0):
-                flagged[band[k]] = _smooth_step(
-                    integrator_code, listed, False, environment, properties, band[k],
-                    old_position, old_velocity, new_position, new_velocity, has_contact,
-                    faces, dt)[0]
-            # Where few spheres cross the surface, the next first pass leaves them to the
-            # wave-band pass; where many do, it computes the waves for every sphere.
+            crossing = (gather_band(flagged, properties, old_position, old_velocity, scratch)
+                        if band_pass and near > 0 and not dense else 0)
+            for k in each_sphere(crossing):
+                band_marks[k] = _smooth_step(
+                    integrator_code, listed, False, environment, band_properties, k,
+                    band_start, band_start_velocity, band_end, band_end_velocity,
+                    has_contact, faces, dt)[0]
+            scatter_band(scratch, crossing, new_position, new_velocity, flagged)
+            # The next step's choice: few crossing, to the wave-band pass; many, not.
             dense = near * DENSE_BAND_SHARE > count
             # Stage 1, faces and the guard; a solver of its spheres' faces before it (stage
             # 0), any other after (stage 2).
