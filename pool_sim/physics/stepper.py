@@ -232,9 +232,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
         floor_supports = listed.gravity and gz < 0.0  # piles rest on the floor (contacts/)
         gravity_step = (gx * dt, gy * dt, gz * dt) if listed.gravity else (0.0, 0.0, 0.0)
         count = position.shape[1]
-        scratch = band_scratch(count if band_pass else 0, properties)
-        (_, band_properties, band_start, band_start_velocity, band_end, band_end_velocity,
-         band_marks) = scratch
+        scratch = band_scratch(count if band_pass else 0, properties)  # the crossing spheres'
         # The first step's choice, from where the spheres are now.
         dense = (band_pass and crossing_count(world, properties, position) * DENSE_BAND_SHARE
                  > count)
@@ -248,16 +246,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                 new_position, new_velocity = position, velocity
             # Marks stored and counted in reductions (a conditional store stops vectorising).
             marked = near = 0
-            if band_pass and dense:  # the waves in the first pass, for every sphere
-                for i in each_sphere(count):
-                    face, crossing = _smooth_step(
-                        integrator_code, listed, band_pass, environment, properties, i,
-                        old_position, old_velocity, new_position, new_velocity, has_contact,
-                        faces, dt)
-                    flagged[i] = face
-                    marked += face
-                    near += crossing
-            else:
+            if not (band_pass and dense):  # without the waves, when band_pass
                 for i in each_sphere(count):
                     face, crossing = _smooth_step(
                         integrator_code, smooth, band_pass, environment, properties, i,
@@ -266,18 +255,28 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                     flagged[i] = face | crossing * BAND_MARK
                     marked += face
                     near += crossing
-            # The smooth step again, wave radiation in, for the spheres marked crossing the
-            # surface; their marks become the face mark alone.
-            crossing = (gather_band(flagged, properties, old_position, old_velocity, scratch)
-                        if band_pass and near > 0 and not dense else 0)
-            for k in each_sphere(crossing):
-                band_marks[k] = _smooth_step(
-                    integrator_code, listed, False, environment, band_properties, k,
-                    band_start, band_start_velocity, band_end, band_end_velocity,
-                    has_contact, faces, dt)[0]
-            scatter_band(scratch, crossing, new_position, new_velocity, flagged)
-            # The next step's choice: few crossing, to the wave-band pass; many, not.
-            dense = near * DENSE_BAND_SHARE > count
+            if band_pass:  # the step with the waves: every sphere, or the crossing ones
+                if dense:
+                    crossing = count
+                    band_properties, start, end = properties, old_position, new_position
+                    start_velocity, end_velocity, marks = old_velocity, new_velocity, flagged
+                else:
+                    crossing = gather_band(flagged, properties, old_position, old_velocity,
+                                           scratch) if near > 0 else 0
+                    band_properties, start, end = scratch[1], scratch[2], scratch[4]
+                    start_velocity, end_velocity, marks = scratch[3], scratch[5], scratch[6]
+                faced = crossed = 0
+                for k in each_sphere(crossing):
+                    face, crossing_k = _smooth_step(
+                        integrator_code, listed, True, environment, band_properties, k, start,
+                        start_velocity, end, end_velocity, has_contact, faces, dt)
+                    marks[k] = face
+                    faced += face
+                    crossed += crossing_k
+                if not dense:
+                    scatter_band(scratch, crossing, new_position, new_velocity, flagged)
+                marked, near = marked + faced, crossed if dense else near
+                dense = near * DENSE_BAND_SHARE > count  # the next step's choice
             # Stage 1, faces and the guard; a solver of its spheres' faces before it (stage
             # 0), any other after (stage 2).
             for stage in range(3):
