@@ -1,5 +1,5 @@
 """Spheres dropped into the pool, colliding and settling: pool_sim with and without the
-`collisions` effect, beside MuJoCo (contacts and fluid on) and PyBullet, same spheres, same
+`collisions` effect (with each contact solver), beside MuJoCo (contacts and fluid on) and PyBullet, same spheres, same
 step, in turns. results/collisions was written with `--seconds 2 --repeats 1` (PyBullet
 takes ~5 min a run at 10 000).
 
@@ -51,13 +51,13 @@ def dropped_spheres(count, seed=0):
     return position, radius, density * 4.0 / 3.0 * np.pi * radius**3
 
 
-def pool_sim_run(count, collisions):
+def pool_sim_run(count, collisions, solver='sequential_impulses'):
     position, radius, mass = dropped_spheres(count)
     effects = list(DEFAULT_EFFECTS) + (['collisions'] if collisions else [])
     scene = Scene({'sphere_names': [f's{i}' for i in range(count)], 'effects': effects,
                    'physics_rate_hz': RATE_HZ, 'contact.restitution': RESTITUTION,
                    'contact.static_friction': FRICTION, 'contact.kinetic_friction': FRICTION,
-                   'spheres.position': position.ravel().tolist(),
+                   'contact_solver': solver, 'spheres.position': position.ravel().tolist(),
                    'spheres.radius': radius.tolist(), 'spheres.mass': mass.tolist()})
     simulation = Simulation(scene)
     simulation.prepare()
@@ -149,15 +149,18 @@ def deepest_overlap(simulation):
     return float(np.max(depth / smaller)) if depth.size else 0.0
 
 
-ENGINES = ('pool_sim', 'pool_sim + collisions', 'MuJoCo (contacts + fluid)',
-           'PyBullet (contacts)')
+ENGINES = ('pool_sim', 'pool_sim + collisions', 'pool_sim + collisions (soft_step)',
+           'MuJoCo (contacts + fluid)', 'PyBullet (contacts)')
+OURS = {'pool_sim + collisions': 'sequential_impulses',
+        'pool_sim + collisions (soft_step)': 'soft_step'}
 
 
 def measure(count, seconds, repeats):
     stepper.use_threads(1)  # as MuJoCo and PyBullet step: one thread each
     steps = int(round(seconds * RATE_HZ))
     engines = dict(zip(ENGINES, (pool_sim_run(count, False), pool_sim_run(count, True),
-                                 mujoco_run(count), pybullet_run(count))))
+                                 pool_sim_run(count, True, 'soft_step'), mujoco_run(count),
+                                 pybullet_run(count))))
     times = {name: [] for name in engines}
     for _ in range(repeats):
         for name, (run, _) in engines.items():
@@ -176,23 +179,30 @@ def measure(count, seconds, repeats):
     for name in engines:
         row[name] = statistics.median(times[name]) / (count * steps) * 1e9
         row[f'{name} runs'] = len(times[name])
-    simulation = engines['pool_sim + collisions'][1]
+    for name, solver in OURS.items():
+        row.update({f'{solver}: {key}': value
+                    for key, value in end_and_landing(engines[name][1], steps).items()})
+    import pybullet
+    pybullet.disconnect(engines['PyBullet (contacts)'][1])
+    return row
+
+
+def end_and_landing(simulation, steps):
+    """Where simulation ends (after the last timed run), and the deepest overlap in a run
+    again, looked at every SAMPLE_STEPS steps (untimed: the landing in water, not the end, is
+    where spheres are pressed deepest into each other)."""
     speed = np.linalg.norm(simulation.spheres.velocity, axis=0)
-    row['largest overlap / smaller radius'] = deepest_overlap(simulation)
-    # Untimed: the run again, looked at every SAMPLE_STEPS steps (the landing in water,
-    # not the end, is where spheres are pressed deepest into each other).
+    found = {'largest overlap / smaller radius': deepest_overlap(simulation),
+             'median speed m/s': float(np.median(speed)),
+             'rms speed m/s': float(np.sqrt(np.mean(speed**2)))}
     simulation.reset()
     deepest = []
     for done in range(0, steps, SAMPLE_STEPS):
         simulation.run(min(SAMPLE_STEPS, steps - done), 1.0 / RATE_HZ)
         deepest.append(deepest_overlap(simulation))
-    row['deepest overlap during the run'] = max(deepest)
-    row['median of the sampled deepest'] = float(np.median(deepest))
-    row['median speed m/s'] = float(np.median(speed))
-    row['rms speed m/s'] = float(np.sqrt(np.mean(speed**2)))
-    import pybullet
-    pybullet.disconnect(engines['PyBullet (contacts)'][1])
-    return row
+    found['deepest overlap during the run'] = max(deepest)
+    found['median of the sampled deepest'] = float(np.median(deepest))
+    return found
 
 
 def markdown(rows, seconds, repeats):
@@ -206,27 +216,33 @@ def markdown(rows, seconds, repeats):
                  f"{row['spheres']} spheres " + ', '.join(
                      f"{name} {row[name + ' runs']}" for name in ENGINES) for row in rows)
              + ').', '',
-             '| spheres | pool_sim | pool_sim + collisions | collisions cost x | MuJoCo '
-             '(contacts + fluid) | PyBullet (contacts) | MuJoCo / ours | PyBullet / ours |',
-             '|---:|---:|---:|---:|---:|---:|---:|---:|']
+             '| spheres | pool_sim | pool_sim + collisions | collisions cost x | '
+             'pool_sim + collisions (soft_step) | soft_step cost x | MuJoCo '
+             '(contacts + fluid) | PyBullet (contacts) | MuJoCo / ours | PyBullet / ours | '
+             'MuJoCo / soft_step | PyBullet / soft_step |',
+             '|---:|' + '---:|' * 11]
     for row in rows:
-        ours = row['pool_sim + collisions']
+        ours, soft = row['pool_sim + collisions'], row['pool_sim + collisions (soft_step)']
+        mujoco, pybullet = row['MuJoCo (contacts + fluid)'], row['PyBullet (contacts)']
         lines.append(
             f"| {row['spheres']} | {row['pool_sim']:.0f} | {ours:.0f} | "
-            f"{ours / row['pool_sim']:.2f} | {row['MuJoCo (contacts + fluid)']:.0f} | "
-            f"{row['PyBullet (contacts)']:.0f} | "
-            f"{row['MuJoCo (contacts + fluid)'] / ours:.1f} | "
-            f"{row['PyBullet (contacts)'] / ours:.1f} |")
-    lines += ['', 'pool_sim + collisions: where it ends (after the last run), and the '
-              f'deepest overlap in a run looked at every {SAMPLE_STEPS} steps:', '',
-              '| spheres | largest overlap / smaller radius, at the end | median speed m/s | '
-              'rms speed m/s | deepest overlap during the run | median of the sampled deepest |',
-              '|---:|---:|---:|---:|---:|---:|']
+            f"{ours / row['pool_sim']:.2f} | {soft:.0f} | {soft / row['pool_sim']:.2f} | "
+            f"{mujoco:.0f} | {pybullet:.0f} | {mujoco / ours:.1f} | {pybullet / ours:.1f} | "
+            f"{mujoco / soft:.1f} | {pybullet / soft:.1f} |")
+    lines += ['', 'pool_sim + collisions, each solver: where it ends (after the last run), '
+              f'and the deepest overlap in a run looked at every {SAMPLE_STEPS} steps:', '',
+              '| spheres | solver | largest overlap / smaller radius, at the end | '
+              'median speed m/s | rms speed m/s | deepest overlap during the run | '
+              'median of the sampled deepest |', '|---:|---|---:|---:|---:|---:|---:|']
     for row in rows:
-        lines.append(f"| {row['spheres']} | {row['largest overlap / smaller radius']:.4f} | "
-                     f"{row['median speed m/s']:.2g} | {row['rms speed m/s']:.2g} | "
-                     f"{row['deepest overlap during the run']:.4f} | "
-                     f"{row['median of the sampled deepest']:.4f} |")
+        for solver in OURS.values():
+            lines.append(
+                f"| {row['spheres']} | {solver} | "
+                f"{row[solver + ': largest overlap / smaller radius']:.4f} | "
+                f"{row[solver + ': median speed m/s']:.2g} | "
+                f"{row[solver + ': rms speed m/s']:.2g} | "
+                f"{row[solver + ': deepest overlap during the run']:.4f} | "
+                f"{row[solver + ': median of the sampled deepest']:.4f} |")
     return '\n'.join(lines) + '\n'
 
 

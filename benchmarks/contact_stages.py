@@ -1,0 +1,195 @@
+"""Where a colliding step's time goes, for each contact solver: the smooth step, the broad
+and narrow phase, the warm start's sort, and the solve; and how a dropped pile lands and
+rests under each.
+
+    .venv/bin/python -m benchmarks.contact_stages [--spheres 10000] [--seconds 10]
+        [--out results/collisions/stages.md]
+
+The scene is benchmarks/collisions.py's (spheres dropped from a lattice into the default
+pool, 200 Hz, one thread), run for `--seconds` with each solver. Every half second of
+simulated time it samples the deepest overlap (of the smaller radius), the rms and the
+fastest speed. At two moments, the landing (1.5 s: the spheres are still falling through
+the water onto those below) and the end (the pile), it times, from the same state, turn by
+turn, the median of REPEATS:
+
+- one step without `collisions` (the smooth step and the faces);
+- contact detection alone (detection.detect_contacts, the workspace the step uses);
+- a sort of as many keys as the step has contacts (np.argsort in numba, as the warm start
+  sorts);
+- one step with `collisions`.
+
+The solve is the colliding step less the step without collisions and less detection: it
+holds the sort, the colouring, the rows, the substeps and the restitution pass. Its cost per
+contact per pass divides it by the contacts (pairs, and faces touched by spheres in pairs,
+as the solver remembers them) and the sweeps over them: three a substep (warm start, solve,
+relax) for soft_step; for sequential_impulses, its sweeps are not counted here, so the
+column is left empty.
+"""
+import argparse
+from pathlib import Path
+import statistics
+import time
+
+import numba
+import numpy as np
+
+from benchmarks.collisions import deepest_overlap, dropped_spheres, FRICTION, RATE_HZ, \
+    RESTITUTION
+from benchmarks.common import provenance
+from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, stepper
+from pool_sim.physics.contacts import SOLVERS, workspace
+from pool_sim.physics.contacts.detection import detect_contacts
+
+REPEATS = 15
+LANDING_S = 1.5
+SAMPLE_S = 0.5
+
+
+def scene(count, solver, collisions=True):
+    position, radius, mass = dropped_spheres(count)
+    effects = list(DEFAULT_EFFECTS) + (['collisions'] if collisions else [])
+    return Scene({'sphere_names': [f's{i}' for i in range(count)], 'effects': effects,
+                  'physics_rate_hz': RATE_HZ, 'contact.restitution': RESTITUTION,
+                  'contact.static_friction': FRICTION, 'contact.kinetic_friction': FRICTION,
+                  'contact_solver': solver, 'spheres.position': position.ravel().tolist(),
+                  'spheres.radius': radius.tolist(), 'spheres.mass': mass.tolist()})
+
+
+@numba.njit
+def _sort(keys):
+    return np.argsort(keys)
+
+
+def contacts_of(colliding, smooth):
+    """(pairs detected from colliding's state, contacts its solver remembers after a step
+    from there: pairs and faces, or None, and detect_contacts' input: the state, where the
+    smooth step (smooth, at the same state) ends, the workspace)."""
+    dt = colliding.max_step
+    state = colliding.spheres.position.copy(), colliding.spheres.velocity.copy()
+    smooth.step()
+    after = smooth.spheres.position.copy(), smooth.spheres.velocity.copy()
+    colliding.step()
+    remembered = int(colliding._memory[2][0]) if colliding._memory[0].size else None
+    colliding.spheres.position[:], colliding.spheres.velocity[:] = state
+    reals, wholes = workspace(colliding.spheres.count)
+    contacts, _, _ = detect_contacts(*state, *after, colliding.spheres.radius, dt, reals,
+                                     wholes)
+    return contacts.pairs.shape[1], remembered, (state, after, reals, wholes)
+
+
+def time_stages(colliding, smooth, key_count, detection_input):
+    """Median seconds of each stage, timed in turns from colliding's state."""
+    state = (colliding.spheres.position.copy(), colliding.spheres.velocity.copy())
+    (start, end, reals, wholes), dt = detection_input, colliding.max_step
+    keys = np.random.default_rng(0).integers(0, 2**40, max(key_count, 1))
+
+    def restore(simulation):
+        simulation.spheres.position[:], simulation.spheres.velocity[:] = state
+
+    def step(simulation):
+        restore(simulation)
+        began = time.perf_counter()
+        simulation.step()
+        return time.perf_counter() - began
+
+    def detect():
+        began = time.perf_counter()
+        detect_contacts(*start, *end, colliding.spheres.radius, dt, reals, wholes)
+        return time.perf_counter() - began
+
+    def sort():
+        began = time.perf_counter()
+        _sort(keys)
+        return time.perf_counter() - began
+    stages = {'without collisions': lambda: step(smooth), 'detection': detect,
+              'sort': sort, 'with collisions': lambda: step(colliding)}
+    times = {name: [] for name in stages}
+    for _ in range(REPEATS):
+        for name, stage in stages.items():
+            times[name].append(stage())
+    restore(colliding)
+    return {name: statistics.median(values) for name, values in times.items()}
+
+
+def run(count, seconds, solver):
+    colliding = Simulation(scene(count, solver))
+    smooth = Simulation(scene(count, solver, collisions=False))
+    colliding.prepare()
+    smooth.prepare()
+    samples, rows = [], []
+    steps_per_sample = int(round(SAMPLE_S * RATE_HZ))
+    moments = {int(round(LANDING_S / SAMPLE_S)): 'landing',
+               int(round(seconds / SAMPLE_S)): 'pile'}
+    for sample in range(1, int(round(seconds / SAMPLE_S)) + 1):
+        colliding.run(steps_per_sample, 1.0 / RATE_HZ)
+        speed = np.linalg.norm(colliding.spheres.velocity, axis=0)
+        samples.append((sample * SAMPLE_S, deepest_overlap(colliding),
+                        float(np.sqrt(np.mean(speed**2))), float(speed.max())))
+        if sample in moments:
+            smooth.spheres.position[:] = colliding.spheres.position
+            smooth.spheres.velocity[:] = colliding.spheres.velocity
+            pairs, remembered, detection_input = contacts_of(colliding, smooth)
+            stages = time_stages(colliding, smooth, remembered or pairs, detection_input)
+            rows.append((moments[sample], pairs, remembered, stages))
+    return samples, rows
+
+
+def stage_table(count, results):
+    lines = [f'{count} spheres, one step, µs (median of {REPEATS}, in turns); the solve is '
+             'the step with collisions less the step without and less detection', '',
+             '| solver | moment | pairs | contacts remembered | step without collisions | '
+             'detection | sort of the keys | solve | step with collisions | '
+             'ns per sphere-step | broad phase share | sort share | solve share | '
+             'ns per contact per pass |', '|' + '---|' * 2 + '---:|' * 12]
+    for solver, (_, rows) in results.items():
+        passes = 3 * 4 if solver == 'soft_step' else None
+        for moment, pairs, remembered, t in rows:
+            total = t['with collisions']
+            solve = total - t['without collisions'] - t['detection']
+            per_contact = (f'{solve / ((remembered or pairs) * passes) * 1e9:.1f}'
+                           if passes and (remembered or pairs) else '')
+            lines.append(
+                f'| {solver} | {moment} | {pairs} | {remembered if remembered else ""} | '
+                f'{t["without collisions"] * 1e6:.0f} | {t["detection"] * 1e6:.0f} | '
+                f'{t["sort"] * 1e6:.0f} | {solve * 1e6:.0f} | {total * 1e6:.0f} | '
+                f'{total / count * 1e9:.0f} | {t["detection"] / total:.2f} | '
+                f'{t["sort"] / total:.2f} | {solve / total:.2f} | {per_contact} |')
+    return lines
+
+
+def pile_table(results):
+    lines = ['Every 0.5 s of the run: the deepest overlap / smaller radius, rms and fastest '
+             'speed, m/s', '', '| t s | ' + ' | '.join(
+                 f'{solver} overlap | {solver} rms | {solver} fastest' for solver in results)
+             + ' |', '|---:|' + '---:|' * 3 * len(results)]
+    columns = [samples for samples, _ in results.values()]
+    for row in zip(*columns):
+        lines.append(f'| {row[0][0]:g} | ' + ' | '.join(
+            f'{overlap:.4f} | {rms:.2g} | {fastest:.2g}' for _, overlap, rms, fastest in row)
+            + ' |')
+    return lines
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--spheres', type=int, default=10000)
+    parser.add_argument('--seconds', type=float, default=10.0)
+    parser.add_argument('--out', default='results/collisions/stages.md')
+    arguments = parser.parse_args()
+    if arguments.seconds < LANDING_S + SAMPLE_S:
+        parser.error(f'--seconds: at least {LANDING_S + SAMPLE_S:g}')
+    stepper.use_threads(1)
+    results = {solver: run(arguments.spheres, arguments.seconds, solver)
+               for solver in SOLVERS}
+    text = '\n'.join([provenance(
+        f'.venv/bin/python -m benchmarks.contact_stages --spheres {arguments.spheres} '
+        f'--seconds {arguments.seconds:g}'), '', *stage_table(arguments.spheres, results),
+        '', *pile_table(results)]) + '\n'
+    out = Path(arguments.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text)
+    print(text)
+
+
+if __name__ == '__main__':
+    main()
