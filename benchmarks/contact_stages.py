@@ -8,8 +8,8 @@ rests under each.
 The scene is benchmarks/collisions.py's (spheres dropped from a lattice into the default
 pool, 200 Hz, one thread), run for `--seconds` with each solver. Every half second of
 simulated time it samples the deepest overlap (of the smaller radius), the rms and the
-fastest speed. At two moments, the landing (1.5 s: the spheres are still falling through
-the water onto those below) and the end (the pile), it times, from the same state, turn by
+fastest speed. At three moments (MOMENTS_S: falling through the water, landing on the
+floor and on each other, and the end: the pile), it times, from the same state, turn by
 turn, the median of REPEATS:
 
 - one step without `collisions` (the smooth step and the faces);
@@ -41,7 +41,7 @@ from pool_sim.physics.contacts import SOLVERS, workspace
 from pool_sim.physics.contacts.detection import detect_contacts
 
 REPEATS = 15
-LANDING_S = 1.5
+MOMENTS_S = {1.5: 'falling', 5.0: 'landing'}  # and the end: 'pile'
 SAMPLE_S = 0.5
 
 
@@ -118,8 +118,8 @@ def run(count, seconds, solver):
     smooth.prepare()
     samples, rows = [], []
     steps_per_sample = int(round(SAMPLE_S * RATE_HZ))
-    moments = {int(round(LANDING_S / SAMPLE_S)): 'landing',
-               int(round(seconds / SAMPLE_S)): 'pile'}
+    moments = {int(round(at / SAMPLE_S)): name for at, name in MOMENTS_S.items()}
+    moments[int(round(seconds / SAMPLE_S))] = 'pile'
     for sample in range(1, int(round(seconds / SAMPLE_S)) + 1):
         colliding.run(steps_per_sample, 1.0 / RATE_HZ)
         speed = np.linalg.norm(colliding.spheres.velocity, axis=0)
@@ -176,8 +176,8 @@ def main():
     parser.add_argument('--seconds', type=float, default=10.0)
     parser.add_argument('--out', default='results/collisions/stages.md')
     arguments = parser.parse_args()
-    if arguments.seconds < LANDING_S + SAMPLE_S:
-        parser.error(f'--seconds: at least {LANDING_S + SAMPLE_S:g}')
+    if arguments.seconds < max(MOMENTS_S) + SAMPLE_S:
+        parser.error(f'--seconds: at least {max(MOMENTS_S) + SAMPLE_S:g}')
     stepper.use_threads(1)
     results = {solver: run(arguments.spheres, arguments.seconds, solver)
                for solver in SOLVERS}
