@@ -24,11 +24,12 @@ import argparse
 from pathlib import Path
 import platform
 import statistics
+import sys
 import time
 
 import numpy as np
 
-from benchmarks.common import write_csv
+from benchmarks.common import provenance, write_csv
 from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, stepper
 from pool_sim.physics.contacts import overlaps
 
@@ -259,7 +260,8 @@ def main():
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     write_csv(rows, out / 'collisions.csv')
-    text = markdown(rows, args.seconds, args.repeats)
+    command = ' '.join(['.venv/bin/python -m benchmarks.collisions', *sys.argv[1:]])
+    text = provenance(command) + '\n\n' + markdown(rows, args.seconds, args.repeats)
     (out / 'collisions.md').write_text(text)
     print(text)
 
