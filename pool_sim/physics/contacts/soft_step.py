@@ -220,7 +220,7 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
         restitute_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity_rows,
                           inverse_mass, threshold, contact[0])
     _remember(rows, slot, keys, sorted_keys, memory_keys, memory_forces, memory_count, settings,
-              threshold, dt)
+              dt)
     put_back_count = 0
     for k in range(members):
         i = sphere[k]
@@ -361,18 +361,15 @@ def _warm_start(rows, slot, keys, sorted_keys, memory_keys, memory_forces, remem
 
 @numba.njit(error_model='numpy')
 def _remember(rows, slot, keys, sorted_keys, memory_keys, memory_forces, memory_count,
-              settings, threshold, dt):
+              settings, dt):
     """This step's contacts, sorted by key, as forces (N) in memory_* for the next step
-    (as many as it holds: the rest start from none). An impact (a contact that approached
-    faster than threshold m/s) is remembered with no force: what stopped it is no load to
-    carry on, and warm-started, it would throw the spheres apart (a heavy sphere thrown on
-    a light one left at 0.4 m/s with restitution 0)."""
+    (as many as it holds: the rest start from none)."""
+    per_second = settings[0] / dt
     kept = min(sorted_keys.size, memory_keys.size)
     for t in range(kept):
         c = sorted_keys[t]
         s = slot[c]
         memory_keys[t] = keys[c]
-        per_second = settings[0] / dt if rows[s, _APPROACH] >= -threshold else 0.0
         memory_forces[t, 0] = rows[s, _NORMAL] * per_second
         memory_forces[t, 1] = rows[s, _FX] * per_second
         memory_forces[t, 2] = rows[s, _FY] * per_second
