@@ -14,8 +14,8 @@ turn, the median of REPEATS:
 
 - one step without `collisions` (the smooth step and the faces);
 - contact detection alone (detection.detect_contacts, the workspace the step uses);
-- a sort of as many keys as the step has contacts (np.argsort in numba, as the warm start
-  sorts);
+- a sort of as many keys as the step has contacts (np.argsort in numba, as soft_step's warm
+  start sorts; sequential_impulses sorts none, and its rows leave the column empty);
 - one step with `collisions`.
 
 The solve is the colliding step less the step without collisions and less detection: it
@@ -143,6 +143,9 @@ def stage_table(count, results):
              'ns per contact per pass |', '|' + '---|' * 2 + '---:|' * 12]
     for solver, (_, rows) in results.items():
         passes = 3 * 4 if solver == 'soft_step' else None
+
+        def sort(value, form, sorts=solver == 'soft_step'):
+            return format(value, form) if sorts else ''  # sequential_impulses sorts no keys
         for moment, pairs, remembered, t in rows:
             total = t['with collisions']
             solve = total - t['without collisions'] - t['detection']
@@ -151,9 +154,9 @@ def stage_table(count, results):
             lines.append(
                 f'| {solver} | {moment} | {pairs} | {remembered if remembered else ""} | '
                 f'{t["without collisions"] * 1e6:.0f} | {t["detection"] * 1e6:.0f} | '
-                f'{t["sort"] * 1e6:.0f} | {solve * 1e6:.0f} | {total * 1e6:.0f} | '
+                f'{sort(t["sort"] * 1e6, ".0f")} | {solve * 1e6:.0f} | {total * 1e6:.0f} | '
                 f'{total / count * 1e9:.0f} | {t["detection"] / total:.2f} | '
-                f'{t["sort"] / total:.2f} | {solve / total:.2f} | {per_contact} |')
+                f'{sort(t["sort"] / total, ".2f")} | {solve / total:.2f} | {per_contact} |')
     return lines
 
 
