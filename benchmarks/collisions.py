@@ -1,6 +1,6 @@
 """Spheres dropped into the pool, colliding and settling: pool_sim with and without the
-`collisions` effect (with each contact solver), beside MuJoCo (contacts and fluid on) and PyBullet, same spheres, same
-step, in turns. results/collisions was written with `--seconds 2 --repeats 1` (PyBullet
+`collisions` effect (with each contact solver), beside MuJoCo (contacts and fluid on) and
+PyBullet, same spheres, same step, in turns. results/collisions was written with `--seconds 2 --repeats 1` (PyBullet
 takes ~5 min a run at 10 000).
 
     .venv/bin/python -m benchmarks.collisions [--out results/collisions] [--counts 1000 10000]
@@ -29,8 +29,8 @@ import time
 
 import numpy as np
 
-from benchmarks.common import provenance, write_csv
-from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, stepper
+from benchmarks.common import dropped_scene, dropped_spheres, provenance, write_csv
+from pool_sim.physics import Simulation, stepper
 from pool_sim.physics.contacts import overlaps
 
 RATE_HZ = 200.0
@@ -38,28 +38,8 @@ RESTITUTION, FRICTION = 0.5, 0.6
 POOL_MIN, POOL_MAX = (-4.0, -4.0, -4.0), (4.0, 4.0, 4.0)
 
 
-def dropped_spheres(count, seed=0):
-    """(position (count, 3) m, radius (count,) m, mass (count,) kg): a lattice above the
-    water, 0.13 m apart, slightly jittered."""
-    rng = np.random.default_rng(seed)
-    side = 22
-    index = np.arange(count)
-    lattice = np.stack([index % side, (index // side) % side, index // (side * side)], 1)
-    position = (lattice - [side / 2 - 0.5, side / 2 - 0.5, 0.0]) * 0.13 + [0.0, 0.0, 0.3]
-    position += rng.uniform(-0.005, 0.005, position.shape)
-    radius = rng.uniform(0.03, 0.06, count)
-    density = rng.uniform(300.0, 3000.0, count)
-    return position, radius, density * 4.0 / 3.0 * np.pi * radius**3
-
-
 def pool_sim_run(count, collisions, solver='sequential_impulses'):
-    position, radius, mass = dropped_spheres(count)
-    effects = list(DEFAULT_EFFECTS) + (['collisions'] if collisions else [])
-    scene = Scene({'sphere_names': [f's{i}' for i in range(count)], 'effects': effects,
-                   'physics_rate_hz': RATE_HZ, 'contact.restitution': RESTITUTION,
-                   'contact.static_friction': FRICTION, 'contact.kinetic_friction': FRICTION,
-                   'contact_solver': solver, 'spheres.position': position.ravel().tolist(),
-                   'spheres.radius': radius.tolist(), 'spheres.mass': mass.tolist()})
+    scene = dropped_scene(count, collisions, solver, RATE_HZ, RESTITUTION, FRICTION)
     simulation = Simulation(scene)
     simulation.prepare()
 

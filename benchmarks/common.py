@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 
-from pool_sim.physics import Scene
+from pool_sim.physics import DEFAULT_EFFECTS, Scene
 
 
 def many_spheres_scene(count, effects, seed=0, **keys):
@@ -22,6 +22,34 @@ def many_spheres_scene(count, effects, seed=0, **keys):
         params[f'{name}.mass'] = float(density[i] * 4 / 3 * np.pi * radius[i] ** 3)
         params[f'{name}.position'] = [float(v) for v in position[i]]
     return Scene(params)
+
+
+def dropped_spheres(count, seed=0):
+    """(position (count, 3) m, radius (count,) m, mass (count,) kg): a lattice above the
+    water, 0.13 m apart, slightly jittered."""
+    rng = np.random.default_rng(seed)
+    side = 22
+    index = np.arange(count)
+    lattice = np.stack([index % side, (index // side) % side, index // (side * side)], 1)
+    position = (lattice - [side / 2 - 0.5, side / 2 - 0.5, 0.0]) * 0.13 + [0.0, 0.0, 0.3]
+    position += rng.uniform(-0.005, 0.005, position.shape)
+    radius = rng.uniform(0.03, 0.06, count)
+    density = rng.uniform(300.0, 3000.0, count)
+    return position, radius, density * 4.0 / 3.0 * np.pi * radius**3
+
+
+def dropped_scene(count, collisions=True, solver='sequential_impulses', rate_hz=200.0,
+                  restitution=0.5, friction=0.6):
+    """benchmarks/collisions.py's scene: dropped_spheres with the default effects (and
+    `collisions`, resolved by solver), at rate_hz, restitution and friction (static and
+    kinetic) as given."""
+    position, radius, mass = dropped_spheres(count)
+    effects = list(DEFAULT_EFFECTS) + (['collisions'] if collisions else [])
+    return Scene({'sphere_names': [f's{i}' for i in range(count)], 'effects': effects,
+                  'physics_rate_hz': rate_hz, 'contact.restitution': restitution,
+                  'contact.static_friction': friction, 'contact.kinetic_friction': friction,
+                  'contact_solver': solver, 'spheres.position': position.ravel().tolist(),
+                  'spheres.radius': radius.tolist(), 'spheres.mass': mass.tolist()})
 
 
 def timed(function, budget_s=0.6, repeats=7):

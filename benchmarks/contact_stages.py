@@ -33,10 +33,9 @@ import time
 import numba
 import numpy as np
 
-from benchmarks.collisions import deepest_overlap, dropped_spheres, FRICTION, RATE_HZ, \
-    RESTITUTION
-from benchmarks.common import provenance
-from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, stepper
+from benchmarks.collisions import deepest_overlap, FRICTION, RATE_HZ, RESTITUTION
+from benchmarks.common import dropped_scene, provenance
+from pool_sim.physics import Simulation, stepper
 from pool_sim.physics.contacts import SOLVERS, workspace
 from pool_sim.physics.contacts.detection import detect_contacts
 
@@ -46,13 +45,7 @@ SAMPLE_S = 0.5
 
 
 def scene(count, solver, collisions=True):
-    position, radius, mass = dropped_spheres(count)
-    effects = list(DEFAULT_EFFECTS) + (['collisions'] if collisions else [])
-    return Scene({'sphere_names': [f's{i}' for i in range(count)], 'effects': effects,
-                  'physics_rate_hz': RATE_HZ, 'contact.restitution': RESTITUTION,
-                  'contact.static_friction': FRICTION, 'contact.kinetic_friction': FRICTION,
-                  'contact_solver': solver, 'spheres.position': position.ravel().tolist(),
-                  'spheres.radius': radius.tolist(), 'spheres.mass': mass.tolist()})
+    return dropped_scene(count, collisions, solver, RATE_HZ, RESTITUTION, FRICTION)
 
 
 @numba.njit

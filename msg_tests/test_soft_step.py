@@ -10,7 +10,7 @@ from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
 
-from benchmarks.contact_stages import scene as dropped_scene
+from benchmarks.common import dropped_scene
 from pool_sim.physics import INTEGRATORS, Simulation
 from pool_sim.physics.contacts.colouring import colour_contacts, COLOURS
 from pool_sim.physics.contacts.detection import overlaps
@@ -126,7 +126,7 @@ def test_spheres_dropped_through_the_surface_in_a_crowd_do_not_sink_into_each_ot
     # surface: those behind press on those the water slows, step after step. A version that
     # warm-started no contact that approached fast let them sink 0.36 of the smaller radius
     # into each other within 1 s (1.69 at 10 000 spheres); measured 0.09 now.
-    sim = Simulation(dropped_scene(5000, 'soft_step'))
+    sim = Simulation(dropped_scene(5000, solver='soft_step'))
     deepest = 0.0
     for _ in range(20):
         sim.run(10, sim.max_step)
