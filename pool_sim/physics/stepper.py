@@ -257,24 +257,24 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                     near += crossing
             if band_pass:  # the step with the waves: every sphere, or the crossing ones
                 if dense:
-                    crossing = count
+                    again = count
                     band_properties, start, end = properties, old_position, new_position
                     start_velocity, end_velocity, marks = old_velocity, new_velocity, flagged
                 else:
-                    crossing = gather_band(flagged, properties, old_position, old_velocity,
-                                           scratch) if near > 0 else 0
+                    again = gather_band(flagged, properties, old_position, old_velocity,
+                                        scratch) if near > 0 else 0
                     band_properties, start, end = scratch[1], scratch[2], scratch[4]
                     start_velocity, end_velocity, marks = scratch[3], scratch[5], scratch[6]
                 faced = crossed = 0
-                for k in each_sphere(crossing):
-                    face, crossing_k = _smooth_step(
+                for k in each_sphere(again):  # the spheres whose step is taken again
+                    face, crossing = _smooth_step(
                         integrator_code, listed, True, environment, band_properties, k, start,
                         start_velocity, end, end_velocity, has_contact, faces, dt)
                     marks[k] = face
                     faced += face
-                    crossed += crossing_k
+                    crossed += crossing
                 if not dense:
-                    scatter_band(scratch, crossing, new_position, new_velocity, flagged)
+                    scatter_band(scratch, again, new_position, new_velocity, flagged)
                 marked, near = marked + faced, crossed if dense else near
                 dense = near * DENSE_BAND_SHARE > count  # the next step's choice
             # Stage 1, faces and the guard; a solver of its spheres' faces before it (stage

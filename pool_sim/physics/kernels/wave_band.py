@@ -66,7 +66,7 @@ def gather_band(flagged, properties, old_position, old_velocity, scratch):
 
 @compiled
 def scatter_band(scratch, count, new_position, new_velocity, flagged):
-    """The wave-band pass's end states and face marks (in scratch, _band_scratch) back to
+    """The wave-band pass's end states and face marks (in scratch, band_scratch) back to
     the spheres they belong to."""
     band, end_position, end_velocity, marks = scratch[0], scratch[4], scratch[5], scratch[6]
     for k in range(count):
