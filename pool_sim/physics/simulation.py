@@ -11,7 +11,7 @@ import numpy as np
 
 from .contacts import contact_memory, SOLVES_FACES, workspace as collision_workspace
 from .contacts.memory import memory_capacity
-from .kernels.effects import heave_added_masses
+from .kernels.effects import heave_added_masses, WAVE_TABLE
 from .kernels.layout import properties_of
 from .media import cap_volume_integral, linear_volume_integral
 from .schema import GLOBAL_KEYS, SOLVER_SETTINGS
@@ -57,7 +57,7 @@ class Simulation:
         # between calls.
         self._scratch = None
         pool = self.environment.pool
-        self._constants = (environment_array(self.environment),
+        self._constants = (environment_array(self.environment), WAVE_TABLE,
                            np.concatenate([pool.corner_min, pool.corner_max]).astype(float),
                            np.array(dataclasses.astuple(self.contact_parameters), dtype=float),
                            np.array([scene[key] for key in SOLVER_SETTINGS], dtype=float))

@@ -45,8 +45,8 @@ from .contacts import DEFAULT_SOLVER, SOLVERS, SOLVES_FACES
 from .effects import effect_flags
 from .integrators import INTEGRATORS
 from .kernels import compiled
-from .kernels.effects import heave_radiation, inertia, near_surface, water_fraction, \
-    water_taken_on
+from .kernels.effects import heave_radiation, inertia, near_surface, WAVE_TABLE, \
+    water_fraction, water_taken_on
 from .kernels.faces import resolve_contacts
 from .kernels.integrators import explicit_euler, linearly_implicit_euler, rk4, \
     semi_implicit_euler, velocity_verlet
@@ -128,14 +128,14 @@ def _face_mark(has_contact, faces, r, s):
 
 
 @compiled
-def _smooth_step(integrator_code, listed, band_pass, environment, properties, i,
+def _smooth_step(integrator_code, listed, band_pass, environment, wave_table, properties, i,
                  old_position, old_velocity, new_position, new_velocity, has_contact, faces,
                  dt):
     """The first pass for sphere i: its smooth step from the old state arrays (3, n) to the
     new ones; returns its face mark (_face_mark) and, with band_pass, whether it crosses the
     surface where it starts, where it is headed or where it ends (1 or 0)."""
     # Made here, not captured: numba's parallel loop cannot take a namedtuple in.
-    env = env_of(environment)
+    env = env_of(environment, wave_table)
     body = body_of(properties, i)
     start = (old_position[0, i], old_position[1, i], old_position[2, i])
     start_velocity = (old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
@@ -148,38 +148,50 @@ def _smooth_step(integrator_code, listed, band_pass, environment, properties, i,
 
 
 @compiled
+def sphere_faces(listed, has_contact, has_friction, env, faces, contact_parameters, body, old,
+                 state, dt):
+    """One sphere's contacts with the pool's faces (with has_contact) after its smooth step
+    from old to state (x, y, z, vx, vy, vz): (the state, whether the step guard must put it
+    back: the step or its bounce left it non-finite). The second pass's and the GPU's."""
+    overflow = not finite(state)
+    s = state
+    if has_contact and not overflow:
+        s, overflow = resolve_contacts(faces, contact_parameters, has_friction, body.radius,
+                                       old, state, dt)
+        if listed.wave_radiation and not overflow:
+            # Moved by the contact to where it may carry more water.
+            added = heave_radiation(listed, env, body, state[2])[0]
+            inertia_z = inertia(listed, env, body, water_fraction(
+                listed, env, body, state[2])) + added
+            s = (s[0], s[1], s[2], s[3], s[4],
+                 water_taken_on(listed, env, body, inertia_z, added, s[2], s[5]))
+    return s, overflow
+
+
+@compiled
 def _faces_and_guard(listed, has_contact, has_friction, env, faces, contact_parameters,
-                     radius, properties, old_position, old_velocity, new_position, new_velocity,
+                     properties, old_position, old_velocity, new_position, new_velocity,
                      flagged, marked, failed, dt):
     """The second pass (see the module's docstring) over the spheres flagged (n,) marks
-    (marked of them: none, no pass): contacts with the pool's faces (with has_contact), then
-    the step guard. radius (n,) m; properties: the spheres' arrays (layout.properties_of).
-    Returns how many spheres the guard put back (flagged in failed (n,))."""
+    (marked of them: none, no pass): sphere_faces, then the step guard. properties: the
+    spheres' arrays (layout.properties_of). Returns how many spheres the guard put back
+    (flagged in failed (n,))."""
     put_back = 0
-    for i in range(radius.shape[0] if marked else 0):
+    for i in range(flagged.shape[0] if marked else 0):
         if flagged[i] == 0:
             continue
+        old = (old_position[0, i], old_position[1, i], old_position[2, i],
+               old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
         state = (new_position[0, i], new_position[1, i], new_position[2, i],
                  new_velocity[0, i], new_velocity[1, i], new_velocity[2, i])
-        overflow = not finite(state)
-        if has_contact and not overflow:
-            old = (old_position[0, i], old_position[1, i], old_position[2, i],
-                   old_velocity[0, i], old_velocity[1, i], old_velocity[2, i])
-            s, overflow = resolve_contacts(faces, contact_parameters, has_friction,
-                                           radius[i], old, state, dt)
-            if listed.wave_radiation and not overflow:
-                # Moved by the contact to where it may carry more water.
-                body = body_of(properties, i)
-                added = heave_radiation(listed, env, body, state[2])[0]
-                inertia_z = inertia(listed, env, body, water_fraction(
-                    listed, env, body, state[2])) + added
-                s = (s[0], s[1], s[2], s[3], s[4],
-                     water_taken_on(listed, env, body, inertia_z, added, s[2], s[5]))
-            new_position[0, i], new_position[1, i], new_position[2, i] = s[0], s[1], s[2]
-            new_velocity[0, i], new_velocity[1, i], new_velocity[2, i] = s[3], s[4], s[5]
+        s, overflow = sphere_faces(listed, has_contact, has_friction, env, faces,
+                                   contact_parameters, body_of(properties, i), old, state, dt)
         if overflow:
             put_back_sphere(new_position, new_velocity, old_position, failed, i)
             put_back += 1
+        else:
+            new_position[0, i], new_position[1, i], new_position[2, i] = s[0], s[1], s[2]
+            new_velocity[0, i], new_velocity[1, i], new_velocity[2, i] = s[3], s[4], s[5]
     return put_back
 
 
@@ -209,7 +221,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
 
     def run_steps(position, velocity, mass, radius, volume, cross_section, drag_coefficient,
                   lift_coefficient, lift_area, lift_normal, external_force, lift_slope,
-                  stall_angle, environment, pool, contact, solver_settings, spare_position,
+                  stall_angle, environment, wave_table, pool, contact, solver_settings, spare_position,
                   spare_velocity, flagged, failed, collision_reals, collision_wholes,
                   identity, memory_keys, memory_forces, memory_count, steps, dt):
         """Take `steps` steps of dt s in place; returns how many times the step guard put a
@@ -221,7 +233,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
         flagged (n,) uint8, on or past a face or non-finite. The result ends in position
         and velocity. collision_reals, collision_wholes: the collision pass's scratch
         (contacts.workspace; empty without collisions)."""
-        world = env_of(environment)  # the parallel loop makes its own (see there)
+        world = env_of(environment, wave_table)  # the parallel loop makes its own (see there)
         properties = (mass, radius, volume, cross_section, drag_coefficient, lift_coefficient,
                       lift_area, lift_normal, external_force, lift_slope, stall_angle)
         faces = (pool[0], pool[1], pool[2], pool[3], pool[4], pool[5])
@@ -249,7 +261,8 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
             if not (band_pass and dense):  # without the waves, when band_pass
                 for i in each_sphere(count):
                     face, crossing = _smooth_step(
-                        integrator_code, smooth, band_pass, environment, properties, i,
+                        integrator_code, smooth, band_pass, environment, wave_table,
+                        properties, i,
                         old_position, old_velocity, new_position, new_velocity, has_contact,
                         faces, dt)
                     flagged[i] = face | crossing * BAND_MARK
@@ -268,8 +281,9 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                 faced = crossed = 0
                 for k in each_sphere(again):  # the spheres whose step is taken again
                     face, crossing = _smooth_step(
-                        integrator_code, listed, True, environment, band_properties, k, start,
-                        start_velocity, end, end_velocity, has_contact, faces, dt)
+                        integrator_code, listed, True, environment, wave_table,
+                        band_properties, k, start, start_velocity, end, end_velocity,
+                        has_contact, faces, dt)
                     marks[k] = face
                     faced += face
                     crossed += crossing
@@ -283,7 +297,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                 if stage == 1:
                     put_back += _faces_and_guard(
                         listed, has_contact, has_friction, world, faces, contact_parameters,
-                        radius, properties, old_position, old_velocity, new_position,
+                        properties, old_position, old_velocity, new_position,
                         new_velocity, flagged, marked, failed, dt)
                 elif has_collisions and (stage == 0) == solver_first:
                     put_back += _solve_collisions(
@@ -381,7 +395,7 @@ def environment_array(env):
 
 def environment_tuple(env):
     """The world as the compiled per-sphere functions take it, an Env."""
-    return Env(*environment_array(env).tolist())
+    return Env(*environment_array(env).tolist(), WAVE_TABLE)
 
 
 def body_tuple(spheres, index):

@@ -29,6 +29,11 @@ HALF_PI = 0.5 * math.pi
 _DRAFT_CELLS, _MASS_CELLS = DRAFTS.size - 1, MASS_AXIS.size - 1
 _CELLS_PER_DRAFT = _DRAFT_CELLS / (DRAFTS[-1] - DRAFTS[0])
 assert DRAFTS[0] == 0.0 and MASS_AXIS[0] == 0.0 and MASS_AXIS[-1] == 1.0
+# The table heave_radiation reads, as Env.wave_table (layout.py): the added mass, its slope
+# in s and the damping rate, (3, drafts, masses). Passed in, never read as a global: numba
+# would embed a global array in the code, which a GPU's 64 kB of constants cannot hold.
+WAVE_TABLE = np.ascontiguousarray(np.stack((ADDED_MASS, ADDED_MASS_SLOPE, DAMPING_RATE)))
+_ADDED, _ADDED_SLOPE, _DAMPING = range(3)  # its planes
 
 
 _LISTED_SCALAR = effect_flags(['wave_radiation'])
@@ -210,17 +215,18 @@ def heave_radiation(listed, env, body, z):
     column = column if column < _MASS_CELLS else float(_MASS_CELLS)
     j = min(int(column), _MASS_CELLS - 1)
     u, w = row - i, column - j
-    low = ADDED_MASS[i, j] + w * (ADDED_MASS[i, j + 1] - ADDED_MASS[i, j])
-    high = ADDED_MASS[i + 1, j] + w * (ADDED_MASS[i + 1, j + 1] - ADDED_MASS[i + 1, j])
+    table = env.wave_table
+    low = table[_ADDED, i, j] + w * (table[_ADDED, i, j + 1] - table[_ADDED, i, j])
+    high = table[_ADDED, i + 1, j] + w * (table[_ADDED, i + 1, j + 1] - table[_ADDED, i + 1, j])
     # Slopes per cell (ds = one cell): the nodes' dA/ds over the cells per unit of s.
     cell = 1.0 / _CELLS_PER_DRAFT
-    slope_low = cell * (ADDED_MASS_SLOPE[i, j] + w * (ADDED_MASS_SLOPE[i, j + 1]
-                                                      - ADDED_MASS_SLOPE[i, j]))
-    slope_high = cell * (ADDED_MASS_SLOPE[i + 1, j] + w * (ADDED_MASS_SLOPE[i + 1, j + 1]
-                                                           - ADDED_MASS_SLOPE[i + 1, j]))
-    rate_low = DAMPING_RATE[i, j] + w * (DAMPING_RATE[i, j + 1] - DAMPING_RATE[i, j])
-    rate_high = DAMPING_RATE[i + 1, j] + w * (DAMPING_RATE[i + 1, j + 1]
-                                              - DAMPING_RATE[i + 1, j])
+    slope_low = cell * (table[_ADDED_SLOPE, i, j] + w * (table[_ADDED_SLOPE, i, j + 1]
+                                                         - table[_ADDED_SLOPE, i, j]))
+    slope_high = cell * (table[_ADDED_SLOPE, i + 1, j] + w * (
+        table[_ADDED_SLOPE, i + 1, j + 1] - table[_ADDED_SLOPE, i + 1, j]))
+    rate_low = table[_DAMPING, i, j] + w * (table[_DAMPING, i, j + 1] - table[_DAMPING, i, j])
+    rate_high = table[_DAMPING, i + 1, j] + w * (table[_DAMPING, i + 1, j + 1]
+                                                 - table[_DAMPING, i + 1, j])
     on = 1.0 if inside else 0.0
     # Hermite basis on u in [0, 1]
     u2 = u * u
@@ -242,7 +248,7 @@ def heave_added_masses(environment, properties, z):
     """(n,) kg: heave_radiation's added mass of each sphere at centre height z (n,) m, for
     the energy of the water the spheres carry. environment: (12,), in Env's order;
     properties: the spheres' arrays (kernels/layout.py's properties_of)."""
-    env = env_of(environment)
+    env = env_of(environment, WAVE_TABLE)
     added = np.zeros(z.shape[0])
     for i in range(z.shape[0]):
         body = body_of(properties, i)

@@ -8,8 +8,10 @@
   which a vectorised loop would pay for on both sides).
 - `Env`: the world. gravity_x, gravity_y, gravity_z m/s^2; air_density kg/m^3; wind_x,
   wind_y, wind_z m/s; water_density kg/m^3; current_x, current_y, current_z m/s;
-  surface_z m (the water's surface). The step takes it as a (12,) float64 array in this
-  order (env_of).
+  surface_z m (the water's surface); wave_table, the heave radiation table (3, drafts,
+  masses) float64 (effects.WAVE_TABLE), an array read by heave_radiation. The step takes
+  the floats as a (12,) float64 array in this order and the table beside it (env_of): an
+  argument, not a module constant, because a GPU holds only 64 kB of constants.
 - `Body`: one sphere. mass kg; radius m; volume m^3; cross_section m^2; drag_coefficient,
   lift_coefficient (dimensionless); lift_area m^2; lift_normal_x, _y, _z (a unit vector);
   force_x, force_y, force_z N (the external force, world axes); inverse_radius 1/m (a
@@ -24,7 +26,7 @@ Listed = namedtuple('Listed', ('gravity', 'buoyancy', 'drag', 'lift', 'added_mas
                                'wave_radiation', 'cap', 'scalar'))
 Env = namedtuple('Env', ('gravity_x', 'gravity_y', 'gravity_z', 'air_density', 'wind_x',
                          'wind_y', 'wind_z', 'water_density', 'current_x', 'current_y',
-                         'current_z', 'surface_z'))
+                         'current_z', 'surface_z', 'wave_table'))
 Body = namedtuple('Body', ('mass', 'radius', 'volume', 'cross_section', 'drag_coefficient',
                            'lift_coefficient', 'lift_area', 'lift_normal_x', 'lift_normal_y',
                            'lift_normal_z', 'force_x', 'force_y', 'force_z',
@@ -37,11 +39,11 @@ PROPERTIES = ('mass', 'radius', 'volume', 'cross_section', 'drag_coefficient',
 
 
 @compiled
-def env_of(environment):
-    """The world from its (12,) float64 array, in Env's order."""
+def env_of(environment, wave_table):
+    """The world from its (12,) float64 array, in Env's order, and the wave table."""
     return Env(environment[0], environment[1], environment[2], environment[3],
                environment[4], environment[5], environment[6], environment[7],
-               environment[8], environment[9], environment[10], environment[11])
+               environment[8], environment[9], environment[10], environment[11], wave_table)
 
 
 def properties_of(spheres):
