@@ -20,6 +20,7 @@ import numpy as np
 
 from .contact import ContactParameters
 from .contacts import DEFAULT_SOLVER, soft_step, SOLVERS
+from .cuda import BACKENDS
 from .effects import DEFAULT_EFFECTS, EFFECTS
 from .integrators import DEFAULT_INTEGRATOR, INTEGRATORS
 from .spheres import (check_number, check_sphere_name, check_vector, InvalidInput,
@@ -107,6 +108,9 @@ GLOBAL_KEYS = {
     'soft_step.push_out_speed': Key('number', soft_step.PUSH_OUT_SPEED, 'soft_step: the '
                                     'fastest an overlap is pushed apart, m/s', 0.0, 1e3,
                                     'm/s'),
+    'backend': Key('string', 'cpu', 'where the step runs: cpu, or cuda (one NVIDIA GPU, '
+                   "numba-cuda: pip install 'pool_sim[cuda]'; docs/gpu.md)",
+                   allowed=(lambda v: v in BACKENDS, f'one of {list(BACKENDS)}')),
     'physics_rate_hz': Key('number', 200.0, 'physics steps per simulated second',
                            *PHYSICS_RATE_RANGE, 'Hz'),
 }

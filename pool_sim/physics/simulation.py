@@ -17,7 +17,8 @@ from .media import cap_volume_integral, linear_volume_integral
 from .schema import GLOBAL_KEYS, SOLVER_SETTINGS
 from .spheres import InvalidInput, shown
 from .stability import stable_step_bound
-from .stepper import environment_array, Stepper
+from .effects import effect_flags
+from .stepper import environment_array, INTEGRATOR_CODES, Stepper
 
 VOLUME_INTEGRALS = {'cap': cap_volume_integral, 'linear': linear_volume_integral}
 
@@ -67,7 +68,35 @@ class Simulation:
         self._remembers = ('collisions' in scene['effects']
                            and scene['contact_solver'] in SOLVES_FACES)
         self._memory = None
+        self._device = self._device_state(scene, submerged_volume)
         self.reset()
+
+    def _device_state(self, scene, submerged_volume):
+        """The GPU's copy of the spheres with `backend: cuda` (cuda/device.py), else None."""
+        if scene['backend'] != 'cuda':
+            return None
+        from .cuda.device import DeviceState  # numba-cuda: an optional extra
+        effects = scene['effects']
+        configuration = (INTEGRATOR_CODES[scene['integrator']],
+                         effect_flags(effects, submerged_volume, scalar=True),
+                         'contact' in effects, 'friction' in effects)
+        environment, _, pool, contact, _ = self._constants
+        return DeviceState(effects, configuration, (environment, pool, contact))
+
+    @property
+    def spheres(self):
+        """The spheres (a Spheres). With `backend: cuda` their state is brought home from
+        the GPU when read; write them only through this class's methods, which send what
+        they change back up."""
+        if self._device is not None:
+            self._device.bring_home(self._spheres)
+        return self._spheres
+
+    @spheres.setter
+    def spheres(self, spheres):
+        self._spheres = spheres
+        if self._device is not None:
+            self._device.host_changed()
 
     def reset(self):
         """Back to the scene's initial state; time restarts at 0."""
@@ -101,6 +130,12 @@ class Simulation:
         dt = float(dt)
         if not 0.0 < dt < math.inf:  # NaN is not either
             raise InvalidInput(f'dt: must be finite and > 0, got {shown(dt)}')
+        if self._device is not None:
+            put_back, indices = self._device.run(self._spheres, int(steps), dt)
+            if put_back:
+                self._count_recovered(indices, dt, put_back)
+            self.time += steps * dt
+            return
         spheres = self.spheres
         if self._scratch is None or self._scratch[0].shape != spheres.position.shape:
             self._scratch = (np.empty_like(spheres.position), np.empty_like(spheres.velocity),
@@ -173,6 +208,7 @@ class Simulation:
         """Write a change check_change accepted; its index is the sphere's in the spheres
         now (after a spawn or remove, give it the sphere's new index)."""
         self.spheres.apply_change(change, self.environment.pool)
+        self.mark_written()  # a radius moves the sphere inside the pool: every array
 
     def set_mass(self, name, mass_kg):
         self.apply_change(self.check_change(name, 'mass', mass_kg))
@@ -185,14 +221,24 @@ class Simulation:
 
     def set_external_force(self, name, force_n):
         self.spheres.set_external_force(name, force_n)
+        self.mark_written('external_force')
 
     def set_external_forces(self, forces_n):
         """(n, 3) N, every sphere at once, in sphere order; checked, InvalidInput if not."""
         self.spheres.set_external_forces(forces_n)
+        self.mark_written('external_force')
 
     def release_external_forces(self, which):
         """No external force on the spheres `which` selects (a bool mask or indices)."""
         self.spheres.release_external_forces(which)
+        self.mark_written('external_force')
+
+    def mark_written(self, *names):
+        """Say that these arrays of `spheres` (their names on Spheres; all when none is
+        named) were written directly, not through this class's setters: with `backend:
+        cuda` they go up to the GPU before the next step (on the CPU this does nothing)."""
+        if self._device is not None:
+            self._device.host_changed(*((names,) if names else ()))
 
     def change_spheres(self, scene):
         """Go on with the spheres of `scene` (a Scene whose global keys are this one's): it

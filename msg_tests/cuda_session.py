@@ -1,0 +1,104 @@
+"""One session of a simulation driven through the core's API, run on either backend: the
+CPU's here, `backend: cuda` in numba's CUDA simulator in a child process (test_cuda_backend).
+
+    python -m msg_tests.cuda_session OUT.npz   # backend cuda; what session() returns
+
+Each session runs steps between every kind of change the node makes: set_mass,
+set_radius, forces one sphere at a time and all at once, a release, a spawn and a remove
+(change_spheres), the step guard putting a sphere back, and a reset; it keeps the state
+after each.
+"""
+import sys
+
+import numpy as np
+
+from pool_sim.physics.effects import DEFAULT_EFFECTS
+from pool_sim.physics.integrators import INTEGRATORS
+from pool_sim.physics.scene import Scene
+from pool_sim.physics.simulation import Simulation
+
+SPHERES = 24
+# (integrator, effects): every integrator with the default effects (wave radiation among
+# them), and every effect at once.
+CASES = [(integrator, list(DEFAULT_EFFECTS)) for integrator in INTEGRATORS] + [
+    ('linearly_implicit_euler', ['gravity', 'buoyancy', 'drag', 'lift', 'added_mass',
+                                 'wave_radiation', 'contact', 'friction'])]
+
+
+def scene(backend, integrator, effects, names):
+    """A scene of len(names) spheres scattered over the pool, some crossing the surface,
+    some against its faces, some thrown at them."""
+    rng = np.random.default_rng(7)
+    count = len(names)
+    position = np.column_stack([rng.uniform(-3.5, 3.5, count), rng.uniform(-3.5, 3.5, count),
+                                rng.uniform(-0.3, 0.3, count)])
+    velocity = rng.normal(0.0, 3.0, (count, 3))
+    radius = rng.uniform(0.05, 0.1, count)
+    # On the floor and at the ceiling, thrown at them; afloat.
+    position[:3, 2], velocity[:2, 2], radius[:2] = [-3.9, 3.9, 0.0], [-2.0, 2.0], 0.1
+    return Scene({'sphere_names': names, 'backend': backend, 'integrator': integrator,
+                  'effects': effects, 'spheres.position': position.ravel().tolist(),
+                  'spheres.velocity': velocity.ravel().tolist(),
+                  'spheres.radius': radius.tolist(),
+                  'spheres.mass': np.exp(rng.uniform(-3.0, 3.0, count)).tolist(),
+                  'spheres.lift_coefficient': rng.uniform(-1.0, 1.0, count).tolist()})
+
+
+def session(backend, integrator, effects):
+    """{label: array}: the spheres' state after each stage, the guard's count and the
+    spheres it put back."""
+    names = [f's{i}' for i in range(SPHERES)]
+    sim = Simulation(scene(backend, integrator, effects, names))
+    kept = {}
+
+    def keep(label):
+        spheres = sim.spheres
+        kept[f'{label}.position'] = spheres.position.copy()
+        kept[f'{label}.velocity'] = spheres.velocity.copy()
+
+    sim.run(1, 0.005)
+    keep('one')
+    sim.run(40, 0.005)
+    keep('first')
+    sim.set_mass('s3', 0.02)
+    sim.set_radius('s5', 0.3)
+    sim.set_external_force('s6', [5.0, 0.0, 40.0])
+    sim.run(30, 0.005)
+    keep('changed')
+    forces = np.zeros((SPHERES, 3))
+    forces[:, 2] = np.linspace(-20.0, 20.0, SPHERES)
+    sim.set_external_forces(forces)
+    sim.run(30, 0.005)
+    sim.release_external_forces(np.arange(SPHERES) % 2 == 0)
+    sim.run(30, 0.004)
+    keep('forced')
+    # A velocity no step can take (past every setter's check, so written directly, and
+    # said so): the guard puts s7 back where it was, at rest.
+    kept['before.recovered'] = np.array(sim.take_recovered())  # unstable light spheres
+    sim.spheres.velocity[:, sim.spheres.lookup('s7')] = np.nan
+    sim.mark_written('velocity')
+    sim.run(3, 0.005)
+    kept['guard.recovered'] = np.array(sim.take_recovered())
+    kept['guard.recoveries'] = np.array(sim.recoveries)
+    keep('guard')
+    grown = names[2:] + ['new0', 'new1']  # two removed, two spawned, the rest reordered
+    sim.change_spheres(scene(backend, integrator, effects, grown[::-1]))
+    sim.run(50, 0.005)
+    keep('respawned')
+    sim.reset()
+    sim.run(20, 0.005)
+    keep('reset')
+    return kept
+
+
+def sessions(backend):
+    """session() of every case, its labels prefixed by the case's number."""
+    kept = {}
+    for number, (integrator, effects) in enumerate(CASES):
+        for label, value in session(backend, integrator, effects).items():
+            kept[f'{number}.{label}'] = value
+    return kept
+
+
+if __name__ == '__main__':
+    np.savez(sys.argv[1], **sessions('cuda'))

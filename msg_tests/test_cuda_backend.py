@@ -1,0 +1,129 @@
+"""`backend: cuda` without a GPU: the kernels compile to PTX for an H100/H200 (compute
+capability 9.0), run in numba's CUDA simulator and agree with the CPU backend through every
+kind of change the node makes, and a scene asking for a GPU where there is none is refused
+with the reason."""
+import os
+import pathlib
+import subprocess
+import sys
+import types
+from unittest import mock
+
+import numpy as np
+import pytest
+
+from cuda_session import CASES, sessions
+from pool_sim.physics import InvalidInput, Scene, Simulation
+from pool_sim.physics.cuda import load_cuda, simulated, unavailable
+from pool_sim.physics.effects import DEFAULT_EFFECTS, effect_flags
+from pool_sim.physics.integrators import INTEGRATORS
+from pool_sim.physics.stepper import INTEGRATOR_CODES
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+def ptx_of(integrator, effects, has_contact=True, has_friction=True):
+    """The PTX of one configuration's kernel for compute capability 9.0, compiled here,
+    where no GPU is. numba-cuda asks the current device for its compute capability when it
+    compiles an @njit function a kernel calls (dispatcher.compile_device), even when
+    compile_ptx was told the target: that question is answered with 9.0 while compiling."""
+    cuda = load_cuda()
+    from numba.core import types as nb
+    from numba.cuda import dispatcher
+    from pool_sim.physics.cuda.kernels import advance_source
+    vector, matrix = nb.Array(nb.float64, 1, 'C'), nb.Array(nb.float64, 2, 'C')
+    properties = nb.Tuple((vector,) * 7 + (matrix, matrix, vector, vector))
+    signature = (matrix, matrix, properties, vector, nb.Array(nb.float64, 3, 'C'), vector,
+                 vector, nb.Array(nb.uint8, 1, 'C'), nb.Array(nb.int64, 1, 'C'), nb.int64,
+                 nb.float64)
+    source = advance_source(INTEGRATOR_CODES[integrator],
+                            effect_flags(effects, 'cap', scalar=True), has_contact,
+                            has_friction)
+    hopper = types.SimpleNamespace(compute_capability=(9, 0))
+    with mock.patch.object(dispatcher, 'get_current_device', lambda: hopper):
+        ptx, _ = cuda.compile_ptx(source, signature, cc=(9, 0))
+    return ptx
+
+
+@pytest.mark.skipif(simulated(), reason='the simulator has no compiler')
+@pytest.mark.parametrize('integrator', INTEGRATORS)
+def test_every_integrator_with_the_default_effects_compiles_to_ptx_for_compute_capability_9(
+        integrator):
+    ptx = ptx_of(integrator, DEFAULT_EFFECTS)
+    assert '.target sm_90' in ptx
+    assert '.entry' in ptx
+    # The wave table is an argument: a module constant would be embedded in the 64 kB of
+    # constant memory, which ptxas refuses past its size (0x3b190 bytes, measured).
+    assert '.const' not in ptx
+
+
+@pytest.mark.skipif(simulated(), reason='the simulator has no compiler')
+def test_every_effect_without_contact_compiles_to_ptx():
+    ptx = ptx_of('rk4', ['gravity', 'buoyancy', 'drag', 'lift', 'added_mass',
+                         'wave_radiation'], has_contact=False, has_friction=False)
+    assert '.target sm_90' in ptx and '.const' not in ptx
+
+
+@pytest.fixture(scope='module')
+def simulated_sessions(tmp_path_factory):
+    """cuda_session's sessions on `backend: cuda`, in numba's CUDA simulator in a child
+    process (the simulator replaces numba.cuda for the whole process). The per-sphere
+    functions run there as Python (NUMBA_DISABLE_JIT): the simulator runs a kernel's code
+    as Python, so what the kernel calls must be Python too."""
+    out = tmp_path_factory.mktemp('cuda') / 'sessions.npz'
+    environment = {**os.environ, 'NUMBA_ENABLE_CUDASIM': '1', 'NUMBA_DISABLE_JIT': '1',
+                   'PYTHONPATH': os.pathsep.join([str(ROOT), str(ROOT / 'msg_tests'),
+                                                  os.environ.get('PYTHONPATH', '')])}
+    child = subprocess.run([sys.executable, '-m', 'cuda_session', str(out)],
+                           cwd=ROOT / 'msg_tests', env=environment, capture_output=True,
+                           text=True, timeout=300)
+    assert child.returncode == 0, child.stderr[-4000:]
+    with np.load(out) as kept:
+        return dict(kept)
+
+
+def test_the_simulated_gpu_agrees_with_the_cpu_backend_through_every_change(
+        simulated_sessions):
+    on_cpu = sessions('cpu')
+    assert sorted(on_cpu) == sorted(simulated_sessions)
+    for label, value in on_cpu.items():
+        gpu = simulated_sessions[label]
+        assert gpu.shape == value.shape, label
+        # Bit for bit: the same functions, the same order of operations (a real GPU fuses
+        # multiplies and adds, which the simulator does not: docs/gpu.md).
+        assert np.all(np.isfinite(gpu)), label
+        assert np.array_equal(gpu, value), label
+
+
+def test_the_sessions_exercise_what_they_claim(simulated_sessions):
+    # The guard put s7 back (index 7) in each case (and, before it, light spheres that
+    # explicit integrators cannot hold at 5 ms).
+    for number in range(len(CASES)):
+        assert 7 in simulated_sessions[f'{number}.guard.recovered']
+        assert simulated_sessions[f'{number}.guard.recoveries'] >= 1
+        # Something crossed the surface and something touched a face.
+        z = simulated_sessions[f'{number}.one.position'][2]
+        assert np.any(np.abs(z) < 0.1)
+        # Thrown at the floor and the ceiling (+-4 m) from against them, 0.1 m in radius:
+        # bounced back, not through.
+        assert -3.9 <= z[0] < -3.85 and 3.85 < z[1] <= 3.9
+
+
+@pytest.mark.skipif(simulated(), reason='the simulator stands in for a GPU')
+def test_a_scene_asking_for_a_gpu_where_there_is_none_is_refused_with_the_reason():
+    reason = unavailable()
+    assert reason is not None  # this machine has no GPU
+    with pytest.raises(InvalidInput, match='backend: cuda cannot run here: no'):
+        Simulation(Scene({'sphere_names': ['a'], 'backend': 'cuda'}))
+
+
+def test_collisions_on_the_gpu_are_refused_until_they_run_there():
+    with pytest.raises(InvalidInput, match='does not run the collisions effect yet'):
+        Simulation(Scene({'sphere_names': ['a'], 'backend': 'cuda',
+                          'effects': [*DEFAULT_EFFECTS, 'collisions']}))
+
+
+@pytest.mark.parametrize('backend', ['gpu', 'CUDA', '', 'cuda ', 3, None])
+def test_only_the_named_backends_are_taken(backend):
+    with pytest.raises(InvalidInput, match='backend'):
+        Scene({'sphere_names': ['a'], 'backend': backend})

@@ -1,0 +1,50 @@
+"""`backend: cuda`: the step on one NVIDIA GPU, compiled by numba-cuda from the same
+per-sphere functions the CPU step inlines (physics/kernels/, physics/stepper.py's
+_integrate, _face_mark and sphere_faces): no second copy of any effect, integrator or face
+rule.
+
+- kernels.py: the kernel of one scene configuration, composed as the CPU loop is (the
+  scene's choices are compile-time constants).
+- device.py: DeviceState, the spheres' arrays on the GPU and what the host has of them.
+
+numba-cuda is an optional extra (`pip install pool_sim[cuda]`): nothing here is imported
+unless a scene asks for `backend: cuda`. NUMBA_ENABLE_CUDASIM=1 runs the kernels in
+numba's CUDA simulator, on the CPU (what the tests do on a machine without a GPU).
+"""
+import os
+
+import numpy as np
+
+BACKENDS = ('cpu', 'cuda')
+
+
+def load_cuda():
+    """numba.cuda, imported. numba-cuda 0.30.4 still names np.row_stack at import, which
+    numpy 2.5 removed: np.vstack is what it was."""
+    if not hasattr(np, 'row_stack'):
+        np.row_stack = np.vstack
+    from numba import cuda
+    return cuda
+
+
+def simulated():
+    """Whether numba's CUDA simulator stands in for a GPU (NUMBA_ENABLE_CUDASIM=1)."""
+    return os.environ.get('NUMBA_ENABLE_CUDASIM', '0') not in ('', '0')
+
+
+def unavailable():
+    """Why `backend: cuda` cannot run in this process (a sentence), or None if it can."""
+    try:
+        cuda = load_cuda()
+    except ImportError as error:
+        return (f'numba-cuda is not installed ({error}); install the extra: '
+                "pip install 'pool_sim[cuda]'")
+    if simulated():
+        return None
+    try:
+        if cuda.is_available():
+            return None
+    except Exception as error:  # noqa: BLE001 (any driver failure is a reason to refuse)
+        return f'no usable CUDA device: {error}'
+    return ('no CUDA device is present (numba.cuda.is_available() is False: no NVIDIA '
+            'driver, or no GPU)')

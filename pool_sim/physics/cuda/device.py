@@ -1,0 +1,106 @@
+"""DeviceState: one Simulation's spheres on the GPU, and what its host arrays have of them.
+
+The state lives on the GPU between calls. What the host holds is brought home only when
+someone reads it (a publish, a service, a recording: Simulation.spheres), into pinned
+buffers, so the cost of a step does not depend on how often the node publishes. What the
+host writes (a set_mass, forces, a spawn or a reset, all through Simulation's methods) is
+marked and goes up before the next step; nothing else does.
+"""
+import numpy as np
+
+from ..kernels.effects import WAVE_TABLE
+from ..kernels.layout import PROPERTIES
+from ..spheres import InvalidInput
+from . import load_cuda, unavailable
+from .kernels import advance_source, blocks_for, THREADS_PER_BLOCK
+
+STATE = ('position', 'velocity')
+# Every array of the spheres the kernel reads, by their names on Spheres.
+ARRAYS = STATE + PROPERTIES
+
+
+class DeviceState:
+    """The GPU's copy of one simulation's spheres, and its compiled step.
+
+    configuration: (integrator code, Listed (scalar), has_contact, has_friction), as
+    Stepper.configuration names them. constants: (environment (12,), pool (6,), contact
+    (4,)) float64, as the CPU step takes them.
+    """
+
+    _kernels = {}  # configuration -> the compiled kernel, shared by every DeviceState
+
+    def __init__(self, effects, configuration, constants):
+        if 'collisions' in effects:
+            raise InvalidInput('backend: cuda does not run the collisions effect yet (the '
+                               'contact solvers run on the CPU backend only)')
+        reason = unavailable()
+        if reason is not None:
+            raise InvalidInput(f'backend: cuda cannot run here: {reason}')
+        self.cuda = load_cuda()
+        kernel = self._kernels.get(configuration)
+        if kernel is None:
+            kernel = self._kernels[configuration] = self.cuda.jit(
+                advance_source(*configuration))
+        self._kernel = kernel
+        environment, pool, contact = constants
+        self._constants = tuple(self.cuda.to_device(np.ascontiguousarray(array))
+                                for array in (environment, WAVE_TABLE, pool, contact))
+        self._arrays = {}  # name -> its device array
+        self._pinned = {}  # name -> a pinned host buffer it comes home through
+        self._stale = set(ARRAYS)  # the host's arrays the device does not have yet
+        self._host_behind = False  # whether the device's state is newer than the host's
+        self._put_back = self.cuda.to_device(np.zeros(1, dtype=np.int64))
+        self._failed = None
+
+    def host_changed(self, names=ARRAYS):
+        """The host wrote these arrays of the spheres (all by default): they go up before
+        the next step. Read them first (bring_home), or what the device has is lost."""
+        self._stale.update(names)
+
+    def bring_home(self, spheres):
+        """The device's state into spheres' position and velocity, if it is newer."""
+        if not self._host_behind:
+            return
+        for name in STATE:
+            pinned = self._pinned[name]
+            self._arrays[name].copy_to_host(pinned)
+            getattr(spheres, name)[...] = pinned
+        self._host_behind = False
+
+    def _upload(self, spheres):
+        """Every stale array of spheres to the device."""
+        cuda = self.cuda
+        for name in sorted(self._stale):
+            host = np.ascontiguousarray(getattr(spheres, name), dtype=float)
+            device = self._arrays.get(name)
+            if device is None or device.shape != host.shape:
+                self._arrays[name] = cuda.to_device(host)
+                if name in STATE:
+                    self._pinned[name] = cuda.pinned_array(host.shape, dtype=float)
+            else:
+                device.copy_to_device(host)
+        if self._failed is None or self._failed.shape[0] != spheres.count:
+            self._failed = cuda.to_device(np.zeros(spheres.count, dtype=np.uint8))
+        self._stale.clear()
+
+    def run(self, spheres, steps, dt):
+        """`steps` steps of dt s in one launch. Returns (how many times the step guard put
+        a sphere back, the indices of the spheres it put back)."""
+        self._upload(spheres)
+        arrays = self._arrays
+        environment, wave_table, pool, contact = self._constants
+        count = spheres.count
+        if count and steps:
+            properties = tuple(arrays[name] for name in PROPERTIES)
+            self._kernel[blocks_for(count), THREADS_PER_BLOCK](
+                arrays['position'], arrays['velocity'], properties, environment, wave_table,
+                pool, contact, self._failed, self._put_back, steps, dt)
+            self._host_behind = True
+        put_back = int(self._put_back.copy_to_host()[0])  # waits for the launch
+        if not put_back:
+            return 0, np.empty(0, dtype=np.intp)
+        indices = np.flatnonzero(self._failed.copy_to_host())
+        self._put_back.copy_to_device(np.zeros(1, dtype=np.int64))
+        self._failed.copy_to_device(np.zeros(count, dtype=np.uint8))
+        return put_back, indices
+
