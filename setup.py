@@ -22,6 +22,8 @@ setup(
         'record': ['mcap>=1.6.0,<2'],  # the node's `record`, headless --record
         'view': ['foxglove-sdk>=0.30.3,<0.31'],  # foxglove_port, headless --foxglove
         'picture': ['matplotlib>=3.8'],  # headless --animate
+        # backend: cuda (docs/gpu.md); its CUDA toolkit wheels are ~450 MB, so not in run's.
+        'cuda': ['numba-cuda[cu13]>=0.30.4,<0.31'],
     },
     python_requires='>=3.11',
     zip_safe=True,

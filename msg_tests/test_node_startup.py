@@ -27,6 +27,9 @@ def test_without_a_params_file_it_runs_the_seeds_pool_with_every_key_declared():
     ({'sphere_names': []}, 'sphere_names: the node needs at least one sphere'),
     ({'sphere_names': ['a'], 'cork.mass': 1.0}, 'cork.mass: unknown key'),
     ({'integrator': 'magic'}, 'integrator: must be one of'),
+    ({'backend': 'gpu'}, r"backend: must be one of \['cpu', 'cuda'\]"),
+    # No GPU here (test_cuda_backend's simulator runs in a child process of its own).
+    ({'backend': 'cuda'}, 'backend: cuda cannot run here: no'),
 ])
 def test_a_bad_parameter_stops_the_node_naming_the_key(params, message):
     context = Context()

@@ -18,6 +18,7 @@ import pytest
 
 import pool_sim.testing
 from pool_sim import picture
+from pool_sim.physics import cuda
 from pool_sim.ros import foxglove_view, mcap_file
 
 REPO = Path(__file__).resolve().parents[1]
@@ -154,11 +155,12 @@ def test_each_refusal_for_a_missing_library_names_its_pinned_install_command():
     everything = {**pins('requirements.txt'), **pins('requirements-test.txt')}
     for command, name in ((mcap_file.INSTALL, 'mcap'),
                           (foxglove_view.INSTALL_COMMAND, 'foxglove-sdk'),
-                          (picture.INSTALL_COMMAND, 'matplotlib')):
+                          (picture.INSTALL_COMMAND, 'matplotlib'),
+                          (cuda.INSTALL_COMMAND, 'numba-cuda')):
         assert command == f'pip install {everything[name]}'
     extras = setup_keyword('extras_require')
     assert {requirement_name(line) for lines in extras.values() for line in lines} == {
-        'mcap', 'foxglove-sdk', 'matplotlib'}
+        'mcap', 'foxglove-sdk', 'matplotlib', 'numba-cuda'}
 
 
 def test_the_license_is_the_apache_2_0_text_package_xml_and_setup_py_name():

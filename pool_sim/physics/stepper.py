@@ -262,9 +262,8 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                 for i in each_sphere(count):
                     face, crossing = _smooth_step(
                         integrator_code, smooth, band_pass, environment, wave_table,
-                        properties, i,
-                        old_position, old_velocity, new_position, new_velocity, has_contact,
-                        faces, dt)
+                        properties, i, old_position, old_velocity, new_position, new_velocity,
+                        has_contact, faces, dt)
                     flagged[i] = face | crossing * BAND_MARK
                     marked += face
                     near += crossing

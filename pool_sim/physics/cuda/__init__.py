@@ -16,6 +16,8 @@ import os
 import numpy as np
 
 BACKENDS = ('cpu', 'cuda')
+# What a refusal for want of numba-cuda tells the user to run (the pin the tests run).
+INSTALL_COMMAND = 'pip install numba-cuda[cu13]==0.30.4'
 
 
 def load_cuda():
@@ -37,8 +39,7 @@ def unavailable():
     try:
         cuda = load_cuda()
     except ImportError as error:
-        return (f'numba-cuda is not installed ({error}); install the extra: '
-                "pip install 'pool_sim[cuda]'")
+        return f'numba-cuda is not installed ({error}): {INSTALL_COMMAND}'
     if simulated():
         return None
     try:
