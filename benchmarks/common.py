@@ -116,7 +116,9 @@ def provenance(command: str) -> str:
                                   text=True, timeout=10).stdout.strip()
         except OSError:
             return ''
-    commit = git('rev-parse', '--short', 'HEAD') or 'unknown'
+    # POOL_SIM_COMMIT: where the tree came without its .git (a device machine's copy).
+    commit = git('rev-parse', '--short', 'HEAD') or os.environ.get('POOL_SIM_COMMIT',
+                                                                   'unknown')
     if git('status', '--porcelain', '--untracked-files=no', '--', 'pool_sim', 'benchmarks'):
         commit += ' with uncommitted changes'
     model = next((line.split(':', 1)[1].strip() for line in open('/proc/cpuinfo')

@@ -64,19 +64,23 @@ def test_every_effect_without_contact_compiles_to_ptx():
     assert '.target sm_90' in ptx and '.const' not in ptx
 
 
+def simulator_environment():
+    """The environment of a child process that runs `backend: cuda` in numba's CUDA
+    simulator. The per-sphere functions run there as Python (NUMBA_DISABLE_JIT): the
+    simulator runs a kernel's code as Python, so what the kernel calls must be Python too."""
+    return {**os.environ, 'NUMBA_ENABLE_CUDASIM': '1', 'NUMBA_DISABLE_JIT': '1',
+            'PYTHONPATH': os.pathsep.join([str(ROOT), str(ROOT / 'msg_tests'),
+                                           os.environ.get('PYTHONPATH', '')])}
+
+
 @pytest.fixture(scope='module')
 def simulated_sessions(tmp_path_factory):
     """cuda_session's sessions on `backend: cuda`, in numba's CUDA simulator in a child
-    process (the simulator replaces numba.cuda for the whole process). The per-sphere
-    functions run there as Python (NUMBA_DISABLE_JIT): the simulator runs a kernel's code
-    as Python, so what the kernel calls must be Python too."""
+    process (the simulator replaces numba.cuda for the whole process)."""
     out = tmp_path_factory.mktemp('cuda') / 'sessions.npz'
-    environment = {**os.environ, 'NUMBA_ENABLE_CUDASIM': '1', 'NUMBA_DISABLE_JIT': '1',
-                   'PYTHONPATH': os.pathsep.join([str(ROOT), str(ROOT / 'msg_tests'),
-                                                  os.environ.get('PYTHONPATH', '')])}
     child = subprocess.run([sys.executable, '-m', 'cuda_session', str(out)],
-                           cwd=ROOT / 'msg_tests', env=environment, capture_output=True,
-                           text=True, timeout=300)
+                           cwd=ROOT / 'msg_tests', env=simulator_environment(),
+                           capture_output=True, text=True, timeout=300)
     assert child.returncode == 0, child.stderr[-4000:]
     with np.load(out) as kept:
         return dict(kept)
@@ -127,3 +131,19 @@ def test_collisions_on_the_gpu_are_refused_until_they_run_there():
 def test_only_the_named_backends_are_taken(backend):
     with pytest.raises(InvalidInput, match='backend'):
         Scene({'sphere_names': ['a'], 'backend': backend})
+
+
+def test_the_gpu_benchmark_runs_in_the_simulator_and_writes_its_tables(tmp_path):
+    # benchmarks/gpu.py is run once on a GPU machine, prepared here: kept working here.
+    child = subprocess.run(
+        [sys.executable, '-m', 'benchmarks.gpu', '--sizes', '16', '40', '--repeats', '1',
+         '--launch-spheres', '8', '--agreement-spheres', '12', '--agreement-steps', '4',
+         '--out', str(tmp_path)], cwd=ROOT, env=simulator_environment(),
+        capture_output=True, text=True, timeout=300)
+    assert child.returncode == 0, child.stderr[-4000:]
+    text = (tmp_path / 'gpu.md').read_text()
+    assert 'GPU: numba CUDA simulator.' in text
+    assert '| 40 |' in text and 'a configuration made once' in text
+    assert 'largest difference 0 m in position, 0 m/s in velocity' in text
+    rows = (tmp_path / 'gpu.csv').read_text().splitlines()
+    assert len(rows) == 3 and rows[0].startswith('spheres,one_step_per_launch_ns')

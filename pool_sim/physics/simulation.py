@@ -3,7 +3,6 @@
 This is what the node, the tests and the benchmarks drive. Every setter validates before it
 writes, so a refused input leaves the state exactly as it was.
 """
-import dataclasses
 import math
 import time
 
@@ -11,14 +10,13 @@ import numpy as np
 
 from .contacts import contact_memory, SOLVES_FACES, workspace as collision_workspace
 from .contacts.memory import memory_capacity
-from .kernels.effects import heave_added_masses, WAVE_TABLE
+from .kernels.effects import heave_added_masses
 from .kernels.layout import properties_of
 from .media import cap_volume_integral, linear_volume_integral
-from .schema import GLOBAL_KEYS, SOLVER_SETTINGS
+from .schema import GLOBAL_KEYS
 from .spheres import InvalidInput, shown
 from .stability import stable_step_bound
-from .effects import effect_flags
-from .stepper import environment_array, INTEGRATOR_CODES, Stepper
+from .stepper import environment_array, scene_constants, Stepper
 
 VOLUME_INTEGRALS = {'cap': cap_volume_integral, 'linear': linear_volume_integral}
 
@@ -57,11 +55,7 @@ class Simulation:
         # The spare state, marks, failure flags and the collision pass's scratch, kept
         # between calls.
         self._scratch = None
-        pool = self.environment.pool
-        self._constants = (environment_array(self.environment), WAVE_TABLE,
-                           np.concatenate([pool.corner_min, pool.corner_max]).astype(float),
-                           np.array(dataclasses.astuple(self.contact_parameters), dtype=float),
-                           np.array([scene[key] for key in SOLVER_SETTINGS], dtype=float))
+        self._constants = scene_constants(scene)
         # What the contact solver remembers between steps (contacts/memory.py), and each
         # sphere's identity it is keyed by: unique over the run, kept by a sphere that
         # change_spheres carries over, never handed to another.
@@ -76,12 +70,7 @@ class Simulation:
         if scene['backend'] != 'cuda':
             return None
         from .cuda.device import DeviceState  # numba-cuda: an optional extra
-        effects = scene['effects']
-        configuration = (INTEGRATOR_CODES[scene['integrator']],
-                         effect_flags(effects, submerged_volume, scalar=True),
-                         'contact' in effects, 'friction' in effects)
-        environment, _, pool, contact, _ = self._constants
-        return DeviceState(effects, configuration, (environment, pool, contact))
+        return DeviceState.for_scene(scene, submerged_volume)
 
     @property
     def spheres(self):

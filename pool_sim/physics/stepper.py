@@ -32,6 +32,7 @@ Compiled functions are cached on disk (numba's cache, beside this file or in the
 cache directory when that is not writable), each configuration under a name that carries it
 and a digest of the physics sources, so an edit to any of them compiles afresh.
 """
+import dataclasses
 import hashlib
 import math
 import pathlib
@@ -43,6 +44,7 @@ import numpy as np
 
 from .contacts import DEFAULT_SOLVER, SOLVERS, SOLVES_FACES
 from .effects import effect_flags
+from .schema import SOLVER_SETTINGS
 from .integrators import INTEGRATORS
 from .kernels import compiled
 from .kernels.effects import heave_radiation, inertia, near_surface, WAVE_TABLE, \
@@ -390,6 +392,18 @@ def environment_array(env):
     """The world as run_steps takes it: (12,) float64, in Env's order (kernels/layout.py)."""
     return np.array([*env.gravity, env.air.density, *env.air.flow_velocity,
                      env.water.density, *env.water.flow_velocity, env.surface_z], dtype=float)
+
+
+def scene_constants(scene):
+    """What run_steps takes of a scene's world, after the spheres' arrays: (environment
+    (12,), the wave table, pool (6,) m: corner_min then corner_max, contact (4,):
+    ContactParameters' fields, the soft_step solver's settings (4,)), float64."""
+    environment = scene.environment()
+    pool = environment.pool
+    return (environment_array(environment), WAVE_TABLE,
+            np.concatenate([pool.corner_min, pool.corner_max]).astype(float),
+            np.array(dataclasses.astuple(scene.contact_parameters()), dtype=float),
+            np.array([scene[key] for key in SOLVER_SETTINGS], dtype=float))
 
 
 def environment_tuple(env):

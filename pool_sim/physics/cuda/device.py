@@ -29,6 +29,19 @@ class DeviceState:
 
     _kernels = {}  # configuration -> the compiled kernel, shared by every DeviceState
 
+    @classmethod
+    def for_scene(cls, scene, submerged_volume='cap'):
+        """The DeviceState of a scene's configuration and world (no spheres yet: the first
+        run sends them)."""
+        from ..effects import effect_flags
+        from ..stepper import INTEGRATOR_CODES, scene_constants
+        effects = scene['effects']
+        configuration = (INTEGRATOR_CODES[scene['integrator']],
+                         effect_flags(effects, submerged_volume, scalar=True),
+                         'contact' in effects, 'friction' in effects)
+        environment, _, pool, contact, _ = scene_constants(scene)
+        return cls(effects, configuration, (environment, pool, contact))
+
     def __init__(self, effects, configuration, constants):
         if 'collisions' in effects:
             raise InvalidInput('backend: cuda does not run the collisions effect yet (the '
@@ -41,7 +54,7 @@ class DeviceState:
         if kernel is None:
             kernel = self._kernels[configuration] = self.cuda.jit(
                 advance_source(*configuration))
-        self._kernel = kernel
+        self.kernel = kernel
         environment, pool, contact = constants
         self._constants = tuple(self.cuda.to_device(np.ascontiguousarray(array))
                                 for array in (environment, WAVE_TABLE, pool, contact))
@@ -51,6 +64,7 @@ class DeviceState:
         self._host_behind = False  # whether the device's state is newer than the host's
         self._put_back = self.cuda.to_device(np.zeros(1, dtype=np.int64))
         self._failed = None
+        self._configured = {}  # count -> the kernel's launch configuration for it
 
     def host_changed(self, names=ARRAYS):
         """The host wrote these arrays of the spheres (all by default): they go up before
@@ -83,18 +97,30 @@ class DeviceState:
             self._failed = cuda.to_device(np.zeros(spheres.count, dtype=np.uint8))
         self._stale.clear()
 
-    def run(self, spheres, steps, dt):
-        """`steps` steps of dt s in one launch. Returns (how many times the step guard put
-        a sphere back, the indices of the spheres it put back)."""
-        self._upload(spheres)
+    def launch(self, count, steps, dt):
+        """(a launch configuration of the kernel for count spheres, its arguments): calling
+        the one with the others enqueues `steps` steps of dt s. The configuration is made
+        once per count (kernel[grid, block] makes one on every call)."""
+        configured = self._configured.get(count)
+        if configured is None:
+            self._configured = {count: self.kernel[blocks_for(count), THREADS_PER_BLOCK]}
+            configured = self._configured[count]
         arrays = self._arrays
         environment, wave_table, pool, contact = self._constants
+        properties = tuple(arrays[name] for name in PROPERTIES)
+        return configured, (arrays['position'], arrays['velocity'], properties, environment,
+                            wave_table, pool, contact, self._failed, self._put_back, steps,
+                            dt)
+
+    def run(self, spheres, steps, dt):
+        """`steps` steps of dt s in one launch; spheres: a Spheres, or anything with its
+        arrays (ARRAYS) and count. Returns (how many times the step guard put a sphere
+        back, the indices of the spheres it put back)."""
+        self._upload(spheres)
         count = spheres.count
         if count and steps:
-            properties = tuple(arrays[name] for name in PROPERTIES)
-            self._kernel[blocks_for(count), THREADS_PER_BLOCK](
-                arrays['position'], arrays['velocity'], properties, environment, wave_table,
-                pool, contact, self._failed, self._put_back, steps, dt)
+            configured, arguments = self.launch(count, steps, dt)
+            configured(*arguments)
             self._host_behind = True
         put_back = int(self._put_back.copy_to_host()[0])  # waits for the launch
         if not put_back:
@@ -103,4 +129,3 @@ class DeviceState:
         self._put_back.copy_to_device(np.zeros(1, dtype=np.int64))
         self._failed.copy_to_device(np.zeros(count, dtype=np.uint8))
         return put_back, indices
-
