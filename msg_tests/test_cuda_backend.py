@@ -133,6 +133,24 @@ def test_only_the_named_backends_are_taken(backend):
         Scene({'sphere_names': ['a'], 'backend': backend})
 
 
+def test_the_node_on_the_simulated_gpu_runs_a_closed_loop_as_on_the_cpu(tmp_path):
+    # Through the node's own wiring: lockstep, odometry to the depth keeper, its forces
+    # back, set_mass and set_radius services, a reset; each publish reads the GPU's state.
+    from cuda_node import drive
+    out = tmp_path / 'node.npz'
+    child = subprocess.run([sys.executable, '-m', 'cuda_node', str(out)],
+                           cwd=ROOT / 'msg_tests', env=simulator_environment(),
+                           capture_output=True, text=True, timeout=300)
+    assert child.returncode == 0, child.stderr[-4000:]
+    on_cpu = drive('cpu')
+    with np.load(out) as on_gpu:
+        assert sorted(on_gpu.files) == sorted(on_cpu)
+        for label, value in on_cpu.items():
+            assert np.array_equal(on_gpu[label], value), label
+    assert on_cpu['answers'].all()
+    assert abs(on_cpu['changed'][2, 2] + 1.0) < 0.1  # the keeper holds ice near 1 m
+
+
 def test_the_gpu_benchmark_runs_in_the_simulator_and_writes_its_tables(tmp_path):
     # benchmarks/gpu.py is run once on a GPU machine, prepared here: kept working here.
     child = subprocess.run(
