@@ -24,9 +24,10 @@ def many_spheres_scene(count, effects, seed=0, **keys):
     return Scene(params)
 
 
-def dropped_spheres(count, seed=0):
+def dropped_spheres(count, seed=0, least_density=300.0):
     """(position (count, 3) m, radius (count,) m, mass (count,) kg): a lattice above the
-    water, 0.13 m apart, slightly jittered."""
+    water, 0.13 m apart, slightly jittered; densities uniform from least_density to 3000
+    kg/m^3 (below the water's 1000 a sphere floats)."""
     rng = np.random.default_rng(seed)
     side = 22
     index = np.arange(count)
@@ -34,16 +35,16 @@ def dropped_spheres(count, seed=0):
     position = (lattice - [side / 2 - 0.5, side / 2 - 0.5, 0.0]) * 0.13 + [0.0, 0.0, 0.3]
     position += rng.uniform(-0.005, 0.005, position.shape)
     radius = rng.uniform(0.03, 0.06, count)
-    density = rng.uniform(300.0, 3000.0, count)
+    density = rng.uniform(least_density, 3000.0, count)
     return position, radius, density * 4.0 / 3.0 * np.pi * radius**3
 
 
 def dropped_scene(count, collisions=True, solver='sequential_impulses', rate_hz=200.0,
-                  restitution=0.5, friction=0.6):
+                  restitution=0.5, friction=0.6, least_density=300.0):
     """benchmarks/collisions.py's scene: dropped_spheres with the default effects (and
     `collisions`, resolved by solver), at rate_hz, restitution and friction (static and
     kinetic) as given."""
-    position, radius, mass = dropped_spheres(count)
+    position, radius, mass = dropped_spheres(count, least_density=least_density)
     effects = list(DEFAULT_EFFECTS) + (['collisions'] if collisions else [])
     return Scene({'sphere_names': [f's{i}' for i in range(count)], 'effects': effects,
                   'physics_rate_hz': rate_hz, 'contact.restitution': restitution,

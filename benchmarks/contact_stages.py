@@ -3,10 +3,12 @@ and narrow phase, the warm start's sort, and the solve; and how a dropped pile l
 rests under each.
 
     .venv/bin/python -m benchmarks.contact_stages [--spheres 10000] [--seconds 10]
-        [--out results/collisions/stages.md]
+        [--least-density 300] [--out results/collisions/stages.md]
 
 The scene is benchmarks/collisions.py's (spheres dropped from a lattice into the default
-pool, 200 Hz, one thread), run for `--seconds` with each solver. Every half second of
+pool, 200 Hz, one thread), run for `--seconds` with each solver. Its densities start at
+300 kg/m^3: a quarter float, and those a little denser than water are still sinking at 12 s.
+`--least-density 1500` makes every sphere sink and come to rest: a resting pile. Every half second of
 simulated time it samples the deepest overlap (of the smaller radius), the rms and the
 fastest speed. At three moments (MOMENTS_S: falling through the water, landing on the
 floor and on each other, and the end: the pile), it times, from the same state, turn by
@@ -44,8 +46,9 @@ MOMENTS_S = {1.5: 'falling', 5.0: 'landing'}  # and the end: 'pile'
 SAMPLE_S = 0.5
 
 
-def scene(count, solver, collisions=True):
-    return dropped_scene(count, collisions, solver, RATE_HZ, RESTITUTION, FRICTION)
+def scene(count, solver, collisions=True, least_density=300.0):
+    return dropped_scene(count, collisions, solver, RATE_HZ, RESTITUTION, FRICTION,
+                         least_density)
 
 
 @numba.njit
@@ -104,9 +107,9 @@ def time_stages(colliding, smooth, key_count, detection_input):
     return {name: statistics.median(values) for name, values in times.items()}
 
 
-def run(count, seconds, solver):
-    colliding = Simulation(scene(count, solver))
-    smooth = Simulation(scene(count, solver, collisions=False))
+def run(count, seconds, solver, least_density):
+    colliding = Simulation(scene(count, solver, least_density=least_density))
+    smooth = Simulation(scene(count, solver, False, least_density))
     colliding.prepare()
     smooth.prepare()
     samples, rows = [], []
@@ -115,9 +118,12 @@ def run(count, seconds, solver):
     moments[int(round(seconds / SAMPLE_S))] = 'pile'
     for sample in range(1, int(round(seconds / SAMPLE_S)) + 1):
         colliding.run(steps_per_sample, 1.0 / RATE_HZ)
-        speed = np.linalg.norm(colliding.spheres.velocity, axis=0)
+        spheres = colliding.spheres
+        speed = np.linalg.norm(spheres.velocity, axis=0)
+        fastest = int(np.argmax(speed))
         samples.append((sample * SAMPLE_S, deepest_overlap(colliding),
-                        float(np.sqrt(np.mean(speed**2))), float(speed.max())))
+                        float(np.sqrt(np.mean(speed**2))), float(speed[fastest]),
+                        float(spheres.mass[fastest] / spheres.volume[fastest])))
         if sample in moments:
             smooth.spheres.position[:] = colliding.spheres.position
             smooth.spheres.velocity[:] = colliding.spheres.velocity
@@ -153,16 +159,26 @@ def stage_table(count, results):
     return lines
 
 
-def pile_table(results):
+def pile_table(results, settled_s=8.0):
     lines = ['Every 0.5 s of the run: the deepest overlap / smaller radius, rms and fastest '
-             'speed, m/s', '', '| t s | ' + ' | '.join(
-                 f'{solver} overlap | {solver} rms | {solver} fastest' for solver in results)
-             + ' |', '|---:|' + '---:|' * 3 * len(results)]
+             'speed, m/s, and the fastest sphere\'s density, kg/m^3 (one a little denser than '
+             'the water\'s 1000 sinks slowly: at 1091 kg/m^3 and 31 mm, its terminal speed '
+             'sqrt(8/3 r g (rho - rho_w) / (rho_w C_d)) is 0.40 m/s)', '', '| t s | ' + ' | '.join(
+                 f'{solver} overlap | {solver} rms | {solver} fastest | {solver} its density'
+                 for solver in results) + ' |', '|---:|' + '---:|' * 4 * len(results)]
     columns = [samples for samples, _ in results.values()]
     for row in zip(*columns):
         lines.append(f'| {row[0][0]:g} | ' + ' | '.join(
-            f'{overlap:.4f} | {rms:.2g} | {fastest:.2g}' for _, overlap, rms, fastest in row)
-            + ' |')
+            f'{overlap:.4f} | {rms:.2g} | {fastest:.2g} | {density:.0f}'
+            for _, overlap, rms, fastest, density in row) + ' |')
+    lines += ['', f'From {settled_s:g} s on (the largest of the samples), and over the whole '
+              'run:', '', '| solver | rms, m/s | fastest, m/s | deepest overlap | deepest '
+              'overlap over the run |', '|---|---:|---:|---:|---:|']
+    for solver, (samples, _) in results.items():
+        late = [sample for sample in samples if sample[0] >= settled_s] or samples[-1:]
+        lines.append(f'| {solver} | {max(s[2] for s in late):.2g} | '
+                     f'{max(s[3] for s in late):.2g} | {max(s[1] for s in late):.4f} | '
+                     f'{max(s[1] for s in samples):.4f} |')
     return lines
 
 
@@ -170,16 +186,20 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--spheres', type=int, default=10000)
     parser.add_argument('--seconds', type=float, default=10.0)
+    parser.add_argument('--least-density', type=float, default=300.0,
+                        help='kg/m^3; from 1000 up every sphere sinks and comes to rest')
     parser.add_argument('--out', default='results/collisions/stages.md')
     arguments = parser.parse_args()
     if arguments.seconds < max(MOMENTS_S) + SAMPLE_S:
         parser.error(f'--seconds: at least {max(MOMENTS_S) + SAMPLE_S:g}')
     stepper.use_threads(1)
-    results = {solver: run(arguments.spheres, arguments.seconds, solver)
-               for solver in SOLVERS}
+    results = {solver: run(arguments.spheres, arguments.seconds, solver,
+                           arguments.least_density) for solver in SOLVERS}
     text = '\n'.join([provenance(
         f'.venv/bin/python -m benchmarks.contact_stages --spheres {arguments.spheres} '
-        f'--seconds {arguments.seconds:g}'), '', *stage_table(arguments.spheres, results),
+        f'--seconds {arguments.seconds:g} --least-density {arguments.least_density:g}'),
+        f'Densities from {arguments.least_density:g} to 3000 kg/m^3.', '',
+        *stage_table(arguments.spheres, results),
         '', *pile_table(results)]) + '\n'
     out = Path(arguments.out)
     out.parent.mkdir(parents=True, exist_ok=True)
