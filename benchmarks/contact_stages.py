@@ -3,7 +3,8 @@ and narrow phase, the warm start's sort, and the solve; and how a dropped pile l
 rests under each.
 
     .venv/bin/python -m benchmarks.contact_stages [--spheres 10000] [--seconds 10]
-        [--least-density 300] [--out results/collisions/stages.md]
+        [--least-density 300] [--solvers soft_step] [--substeps 8]
+        [--out results/collisions/stages.md]
 
 The scene is benchmarks/collisions.py's (spheres dropped from a lattice into the default
 pool, 200 Hz, one thread), run for `--seconds` with each solver. Its densities start at
@@ -38,7 +39,7 @@ import numpy as np
 from benchmarks.collisions import deepest_overlap, FRICTION, RATE_HZ, RESTITUTION
 from benchmarks.common import dropped_scene, provenance
 from pool_sim.physics import Simulation, stepper
-from pool_sim.physics.contacts import SOLVERS, workspace
+from pool_sim.physics.contacts import soft_step, SOLVERS, workspace
 from pool_sim.physics.contacts.detection import detect_contacts
 
 REPEATS = 15
@@ -46,9 +47,12 @@ MOMENTS_S = {1.5: 'falling', 5.0: 'landing'}  # and the end: 'pile'
 SAMPLE_S = 0.5
 
 
-def scene(count, solver, collisions=True, least_density=300.0):
-    return dropped_scene(count, collisions, solver, RATE_HZ, RESTITUTION, FRICTION,
-                         least_density)
+def scene(count, solver, collisions=True, least_density=300.0, substeps=None):
+    """The dropped-spheres scene; substeps: soft_step's (None: its default)."""
+    dropped = dropped_scene(count, collisions, solver, RATE_HZ, RESTITUTION, FRICTION,
+                            least_density)
+    return dropped if substeps is None else dropped.with_values(
+        **{'soft_step.substeps': substeps})
 
 
 @numba.njit
@@ -107,9 +111,9 @@ def time_stages(colliding, smooth, key_count, detection_input):
     return {name: statistics.median(values) for name, values in times.items()}
 
 
-def run(count, seconds, solver, least_density):
-    colliding = Simulation(scene(count, solver, least_density=least_density))
-    smooth = Simulation(scene(count, solver, False, least_density))
+def run(count, seconds, solver, least_density, substeps):
+    colliding = Simulation(scene(count, solver, True, least_density, substeps))
+    smooth = Simulation(scene(count, solver, False, least_density, substeps))
     colliding.prepare()
     smooth.prepare()
     samples, rows = [], []
@@ -133,7 +137,7 @@ def run(count, seconds, solver, least_density):
     return samples, rows
 
 
-def stage_table(count, results):
+def stage_table(count, results, substeps=None):
     lines = [f'{count} spheres, one step, µs (median of {REPEATS}, in turns); the solve is '
              'the step with collisions less the step without and less detection', '',
              '| solver | moment | pairs | contacts remembered | step without collisions | '
@@ -141,7 +145,7 @@ def stage_table(count, results):
              'ns per sphere-step | broad phase share | sort share | solve share | '
              'ns per contact per pass |', '|' + '---|' * 2 + '---:|' * 12]
     for solver, (_, rows) in results.items():
-        passes = 3 * 4 if solver == 'soft_step' else None
+        passes = 3 * (substeps or soft_step.SUBSTEPS) if solver == 'soft_step' else None
 
         def sort(value, form, sorts=solver == 'soft_step'):
             return format(value, form) if sorts else ''  # sequential_impulses sorts no keys
@@ -188,18 +192,23 @@ def main():
     parser.add_argument('--seconds', type=float, default=10.0)
     parser.add_argument('--least-density', type=float, default=300.0,
                         help='kg/m^3; from 1000 up every sphere sinks and comes to rest')
+    parser.add_argument('--solvers', nargs='+', choices=sorted(SOLVERS), default=list(SOLVERS))
+    parser.add_argument('--substeps', type=int, help="soft_step's (default: the scene key's)")
     parser.add_argument('--out', default='results/collisions/stages.md')
     arguments = parser.parse_args()
     if arguments.seconds < max(MOMENTS_S) + SAMPLE_S:
         parser.error(f'--seconds: at least {max(MOMENTS_S) + SAMPLE_S:g}')
     stepper.use_threads(1)
     results = {solver: run(arguments.spheres, arguments.seconds, solver,
-                           arguments.least_density) for solver in SOLVERS}
+                           arguments.least_density, arguments.substeps)
+               for solver in arguments.solvers}
     text = '\n'.join([provenance(
         f'.venv/bin/python -m benchmarks.contact_stages --spheres {arguments.spheres} '
-        f'--seconds {arguments.seconds:g} --least-density {arguments.least_density:g}'),
+        f'--seconds {arguments.seconds:g} --least-density {arguments.least_density:g}'
+        + (f' --solvers {" ".join(arguments.solvers)}' if arguments.solvers != list(SOLVERS)
+           else '') + (f' --substeps {arguments.substeps}' if arguments.substeps else '')),
         f'Densities from {arguments.least_density:g} to 3000 kg/m^3.', '',
-        *stage_table(arguments.spheres, results),
+        *stage_table(arguments.spheres, results, arguments.substeps),
         '', *pile_table(results)]) + '\n'
     out = Path(arguments.out)
     out.parent.mkdir(parents=True, exist_ok=True)
