@@ -121,6 +121,13 @@ def test_a_scene_asking_for_a_gpu_where_there_is_none_is_refused_with_the_reason
         Simulation(Scene({'sphere_names': ['a'], 'backend': 'cuda'}))
 
 
+@pytest.mark.parametrize('name', ['colour', '', 'Position', None, 3])
+def test_marking_an_array_the_spheres_do_not_have_is_refused(name):
+    sim = Simulation(Scene({'sphere_names': ['a']}))
+    with pytest.raises(InvalidInput, match='mark_written: the spheres have no array'):
+        sim.mark_written('velocity', name)
+
+
 def test_collisions_on_the_gpu_are_refused_until_they_run_there():
     with pytest.raises(InvalidInput, match='does not run the collisions effect yet'):
         Simulation(Scene({'sphere_names': ['a'], 'backend': 'cuda',

@@ -11,7 +11,7 @@ import numpy as np
 from .contacts import contact_memory, SOLVES_FACES, workspace as collision_workspace
 from .contacts.memory import memory_capacity
 from .kernels.effects import heave_added_masses
-from .kernels.layout import properties_of
+from .kernels.layout import properties_of, PROPERTIES
 from .media import cap_volume_integral, linear_volume_integral
 from .schema import GLOBAL_KEYS
 from .spheres import InvalidInput, shown
@@ -226,6 +226,11 @@ class Simulation:
         """Say that these arrays of `spheres` (their names on Spheres; all when none is
         named) were written directly, not through this class's setters: with `backend:
         cuda` they go up to the GPU before the next step (on the CPU this does nothing)."""
+        arrays = ('position', 'velocity', *PROPERTIES)
+        unknown = [name for name in names if name not in arrays]
+        if unknown:
+            raise InvalidInput(f'mark_written: the spheres have no array {shown(unknown[0])}; '
+                               f'they have {", ".join(arrays)}')
         if self._device is not None:
             self._device.host_changed(*((names,) if names else ()))
 
