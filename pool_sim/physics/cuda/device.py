@@ -118,10 +118,10 @@ class DeviceState:
         back, the indices of the spheres it put back)."""
         self._upload(spheres)
         count = spheres.count
-        if count and steps:
+        if count:  # none steps too: it compiles the kernel (Simulation.prepare), moves nothing
             configured, arguments = self.launch(count, steps, dt)
             configured(*arguments)
-            self._host_behind = True
+            self._host_behind = steps > 0 or self._host_behind
         put_back = int(self._put_back.copy_to_host()[0])  # waits for the launch
         if not put_back:
             return 0, np.empty(0, dtype=np.intp)
