@@ -87,7 +87,8 @@ def session(backend, integrator, effects):
     sim.change_spheres(scene(backend, integrator, effects, grown[::-1]))
     sim.run(50, 0.005)
     keep('respawned')
-    sim.reset()
+    sim.run(10, 0.005)
+    sim.reset()  # straight after a step: the reset's state, not the step's, goes on
     sim.run(20, 0.005)
     keep('reset')
     return kept

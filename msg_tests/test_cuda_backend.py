@@ -158,6 +158,36 @@ def test_the_node_on_the_simulated_gpu_runs_a_closed_loop_as_on_the_cpu(tmp_path
     assert abs(on_cpu['changed'][2, 2] + 1.0) < 0.1  # the keeper holds ice near 1 m
 
 
+HELD_ARRAYS = """
+import numpy as np
+from pool_sim.physics import Scene, Simulation
+sim = Simulation(Scene({'sphere_names': ['a', 'b'], 'backend': 'cuda'}))
+held = sim.spheres.velocity
+sim.run(2, 0.005)
+try:
+    held[2, 0] = 0.0  # held from before the step: stale, so refused
+    raise SystemExit('a write into a stale array went through')
+except ValueError:
+    pass
+sim.spheres.velocity[2, 0] = 0.0  # read afresh: writable
+sim.mark_written('velocity')
+sim.run(1, 0.005)
+sim.change_spheres(Scene({'sphere_names': ['a'], 'backend': 'cuda'}).with_values(
+    sphere_names=[]))
+sim.run(3, 0.005)
+assert sim.spheres.count == 0 and sim.time > 0.0
+print('ok')
+"""
+
+
+def test_arrays_held_from_before_a_step_on_the_gpu_refuse_writes_and_no_spheres_step():
+    child = subprocess.run([sys.executable, '-c', HELD_ARRAYS], cwd=ROOT,
+                           env=simulator_environment(), capture_output=True, text=True,
+                           timeout=120)
+    assert child.returncode == 0, child.stderr[-4000:]
+    assert child.stdout.strip().endswith('ok')
+
+
 def test_the_gpu_benchmark_runs_in_the_simulator_and_writes_its_tables(tmp_path):
     # benchmarks/gpu.py is run once on a GPU machine, prepared here: kept working here.
     child = subprocess.run(

@@ -75,8 +75,9 @@ class Simulation:
     @property
     def spheres(self):
         """The spheres (a Spheres). With `backend: cuda` their state is brought home from
-        the GPU when read; write them only through this class's methods, which send what
-        they change back up."""
+        the GPU when read (read it afresh after a step: position and velocity held from
+        before it are read-only until then); write them through this class's methods, or
+        say what was written with mark_written."""
         if self._device is not None:
             self._device.bring_home(self._spheres)
         return self._spheres
@@ -85,7 +86,7 @@ class Simulation:
     def spheres(self, spheres):
         self._spheres = spheres
         if self._device is not None:
-            self._device.host_changed()
+            self._device.replace()
 
     def reset(self):
         """Back to the scene's initial state; time restarts at 0."""
@@ -209,17 +210,17 @@ class Simulation:
         self.apply_change(self.check_change(name, 'lift_area', area_m2))
 
     def set_external_force(self, name, force_n):
-        self.spheres.set_external_force(name, force_n)
+        self._spheres.set_external_force(name, force_n)  # the state need not come home
         self.mark_written('external_force')
 
     def set_external_forces(self, forces_n):
         """(n, 3) N, every sphere at once, in sphere order; checked, InvalidInput if not."""
-        self.spheres.set_external_forces(forces_n)
+        self._spheres.set_external_forces(forces_n)
         self.mark_written('external_force')
 
     def release_external_forces(self, which):
         """No external force on the spheres `which` selects (a bool mask or indices)."""
-        self.spheres.release_external_forces(which)
+        self._spheres.release_external_forces(which)
         self.mark_written('external_force')
 
     def mark_written(self, *names):
@@ -232,6 +233,7 @@ class Simulation:
             raise InvalidInput(f'mark_written: the spheres have no array {shown(unknown[0])}; '
                                f'they have {", ".join(arrays)}')
         if self._device is not None:
+            self.spheres  # a step's state first: the rest of an array goes up beside it
             self._device.host_changed(*((names,) if names else ()))
 
     def change_spheres(self, scene):

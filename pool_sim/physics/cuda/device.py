@@ -71,14 +71,25 @@ class DeviceState:
         the next step. Read them first (bring_home), or what the device has is lost."""
         self._stale.update(names)
 
+    def replace(self):
+        """The host's spheres were replaced (a reset, a spawn, a remove): the host's arrays
+        are the current ones, and all of them go up before the next step."""
+        self._stale.update(ARRAYS)
+        self._host_behind = False
+
     def bring_home(self, spheres):
-        """The device's state into spheres' position and velocity, if it is newer."""
+        """The device's state into spheres' position and velocity, if it is newer. While it
+        is not, those two arrays are read-only: a write into one held from before a step
+        would be lost (and would send the stale rest of it up), so it fails instead."""
         if not self._host_behind:
             return
         for name in STATE:
-            pinned = self._pinned[name]
-            self._arrays[name].copy_to_host(pinned)
-            getattr(spheres, name)[...] = pinned
+            host = getattr(spheres, name)
+            host.flags.writeable = True
+            if host.size:  # no pinned buffer of no bytes
+                pinned = self._pinned[name]
+                self._arrays[name].copy_to_host(pinned)
+                host[...] = pinned
         self._host_behind = False
 
     def _upload(self, spheres):
@@ -89,7 +100,7 @@ class DeviceState:
             device = self._arrays.get(name)
             if device is None or device.shape != host.shape:
                 self._arrays[name] = cuda.to_device(host)
-                if name in STATE:
+                if name in STATE and host.size:
                     self._pinned[name] = cuda.pinned_array(host.shape, dtype=float)
             else:
                 device.copy_to_device(host)
@@ -121,7 +132,10 @@ class DeviceState:
         if count:  # none steps too: it compiles the kernel (Simulation.prepare), moves nothing
             configured, arguments = self.launch(count, steps, dt)
             configured(*arguments)
-            self._host_behind = steps > 0 or self._host_behind
+            if steps:
+                self._host_behind = True
+                for name in STATE:  # stale until brought home (bring_home)
+                    getattr(spheres, name).flags.writeable = False
         put_back = int(self._put_back.copy_to_host()[0])  # waits for the launch
         if not put_back:
             return 0, np.empty(0, dtype=np.intp)
