@@ -1,6 +1,7 @@
 """The node started as a user starts it: achieved real-time factor, publish rate and CPU.
 
     .venv/bin/python -m benchmarks.node_rate [--seconds 10] [--spheres 3,100,1000,5000,10000]
+        [--collisions] [--contact-solver soft_step] [--no-per-sphere-topics]
 
 Table 1: the default pool at real_time_factor 1, 10 and 0. Table 2: N spheres from a
 params file (physics 200 Hz, publishing 30 Hz, real_time_factor 1), with where the node's
@@ -33,15 +34,21 @@ STARTUP_LIMIT_S = 900.0  # a row whose node sends no pose by then is reported as
 DOMAIN_ID = 100 + os.getpid() % 100
 
 
-def spheres_params_file(count, path, collisions=False):
+def spheres_params_file(count, path, collisions=False, contact_solver=None,
+                        per_sphere_topics=True):
     """A params file with `count` spheres scattered through the pool's air and water;
-    collisions: the default effects and `collisions`."""
+    collisions: the default effects and `collisions`, resolved by contact_solver (None:
+    the default); per_sphere_topics: the node key."""
     rng = np.random.default_rng(count)
     lines = ['/**:', '  ros__parameters:',
              f'    sphere_names: [{", ".join(f"s{i}" for i in range(count))}]']
     if collisions:
         lines.append('    effects: [gravity, buoyancy, drag, wave_radiation, contact, friction, '
                      'collisions]')
+    if contact_solver:
+        lines.append(f'    contact_solver: {contact_solver}')
+    if not per_sphere_topics:
+        lines.append('    per_sphere_topics: false')
     for i in range(count):
         radius = float(rng.uniform(0.02, 0.1))
         mass = float(rng.uniform(100.0, 3000.0) * 4.0 / 3.0 * np.pi * radius**3)
@@ -155,6 +162,10 @@ def main():
     parser.add_argument('--skip-default', action='store_true')
     parser.add_argument('--collisions', action='store_true',
                         help='the N-sphere table with `collisions` listed too')
+    parser.add_argument('--contact-solver', help='of the N-sphere table (default: the '
+                        "scene key's default)")
+    parser.add_argument('--no-per-sphere-topics', action='store_true',
+                        help='the N-sphere table with per_sphere_topics false')
     parser.add_argument('--odometry', default='1000',
                         help='sphere counts of the table with a subscriber on every odometry '
                              'topic (empty: none)')
@@ -170,6 +181,8 @@ def main():
                   f'{per_sim:13.2f} | {cpu:10.0f} |')
         print()
     colliding = ' colliding (the default effects and collisions)' if args.collisions else ''
+    colliding += f', contact_solver {args.contact_solver}' if args.contact_solver else ''
+    colliding += ', per-sphere topics off' if args.no_per_sphere_topics else ''
     print(f'N spheres{colliding}, 200 Hz physics, 30 Hz publishing, real_time_factor 1; '
           f'RTF, publish rate and where the wall time went from the node\'s own clocks over '
           f'the last {seconds:g} s it ran; the client column is what one Python subscriber received')
@@ -179,7 +192,8 @@ def main():
     with tempfile.TemporaryDirectory() as folder:
         for count in (int(n) for n in args.spheres.split(',') if n):
             params = spheres_params_file(count, Path(folder) / f'spheres{count}.yaml',
-                                         args.collisions)
+                                         args.collisions, args.contact_solver,
+                                         not args.no_per_sphere_topics)
             try:
                 _, client_rate, _, cpu, (startup, shutdown), own, _ = measure(1.0, seconds, params)
             except NoPoses as waited:
