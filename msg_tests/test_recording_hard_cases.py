@@ -2,6 +2,7 @@
 within a stop's time, a reset while recording, headless that must not drop, a second signal
 during headless's clean-up, hostile headless flags."""
 from pathlib import Path
+import io
 import os
 import signal
 import subprocess
@@ -123,6 +124,41 @@ def test_a_second_signal_during_headless_clean_up_still_finishes_the_file(
     assert process.returncode == 0 and 'Traceback' not in errors, errors
     summary, log_times = summary_of(path)
     assert summary.statistics.message_count > 3000 and log_times == sorted(log_times)
+
+
+
+def test_a_second_signal_while_headless_says_it_stopped_is_ignored(tmp_path, monkeypatch):
+    # The test above, made exact: the first SIGTERM comes from an instant, the second while
+    # headless writes 'stopped at', the moment a second signal 50 ms after the first once
+    # hit in CI (before the `finally` could ignore it: a traceback, exit -2).
+    from pool_sim import headless
+    sent = []
+    instant_rows = headless.instant_rows
+
+    def rows(*arguments, **keywords):
+        row = instant_rows(*arguments, **keywords)
+
+        def on_instant(simulation):
+            row(simulation)
+            if simulation.time > 0.2 and not sent:
+                sent.append('first')
+                os.kill(os.getpid(), signal.SIGTERM)
+        return on_instant
+
+    class Stderr(io.StringIO):
+        def write(self, text):
+            if 'stopped at' in text and sent == ['first']:
+                sent.append('second')
+                os.kill(os.getpid(), signal.SIGTERM)
+            return super().write(text)
+    errors = Stderr()
+    monkeypatch.setattr(headless, 'instant_rows', rows)
+    monkeypatch.setattr(sys, 'stderr', errors)
+    assert headless.main(['--seconds', '5', '--record', str(tmp_path / 'r.mcap')]) == 0
+    assert sent == ['first', 'second']
+    assert 'recorded' in errors.getvalue()  # the file was finished
+    summary, log_times = summary_of(tmp_path / 'r.mcap')
+    assert summary.statistics.message_count > 0 and log_times == sorted(log_times)
 
 
 @pytest.mark.parametrize('arguments, words', [

@@ -105,7 +105,8 @@ def run_published(args, scene, sim):
     # ignored signal would outlive it, inherited by every process started after.
     handlers = {number: signal.getsignal(number) for number in (signal.SIGINT, signal.SIGTERM)}
     try:
-        signal.signal(signal.SIGTERM, _interrupt)
+        for number in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(number, _interrupt)
         try:
             if args.record is not None:
                 from pool_sim.ros.recorder import Recorder
@@ -156,6 +157,12 @@ def instant_rows(every_s, paced, start_s):
 
 
 def _interrupt(signum, frame):
+    """SIGINT's and SIGTERM's handler while headless runs: the first stops the run; any
+    later one is ignored from here on, so that it cannot cut short the clean-up (a second
+    signal 50 ms after the first once landed in the `except` clause, before the `finally`
+    could ignore it, and the process ended in a traceback)."""
+    for number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(number, signal.SIG_IGN)
     raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
