@@ -11,7 +11,7 @@ import numpy as np
 from .contacts import contact_memory, SOLVES_FACES, workspace as collision_workspace
 from .contacts.memory import memory_capacity
 from .kernels.effects import heave_added_masses
-from .kernels.layout import properties_of, PROPERTIES
+from .kernels.layout import properties_of, SPHERE_ARRAYS
 from .media import cap_volume_integral, linear_volume_integral
 from .schema import GLOBAL_KEYS
 from .spheres import InvalidInput, shown
@@ -227,11 +227,10 @@ class Simulation:
         """Say that these arrays of `spheres` (their names on Spheres; all when none is
         named) were written directly, not through this class's setters: with `backend:
         cuda` they go up to the GPU before the next step (on the CPU this does nothing)."""
-        arrays = ('position', 'velocity', *PROPERTIES)
-        unknown = [name for name in names if name not in arrays]
+        unknown = [name for name in names if name not in SPHERE_ARRAYS]
         if unknown:
             raise InvalidInput(f'mark_written: the spheres have no array {shown(unknown[0])}; '
-                               f'they have {", ".join(arrays)}')
+                               f'they have {", ".join(SPHERE_ARRAYS)}')
         if self._device is not None:
             self.spheres  # a step's state first: the rest of an array goes up beside it
             self._device.host_changed(*((names,) if names else ()))

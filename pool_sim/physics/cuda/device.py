@@ -9,14 +9,13 @@ marked and goes up before the next step; nothing else does.
 import numpy as np
 
 from ..kernels.effects import WAVE_TABLE
-from ..kernels.layout import PROPERTIES
+from ..kernels.layout import PROPERTIES, SPHERE_ARRAYS
 from ..spheres import InvalidInput
 from . import load_cuda, unavailable
 from .kernels import advance_source, blocks_for, THREADS_PER_BLOCK
 
 STATE = ('position', 'velocity')
-# Every array of the spheres the kernel reads, by their names on Spheres.
-ARRAYS = STATE + PROPERTIES
+ARRAYS = SPHERE_ARRAYS  # every array of the spheres the kernel reads
 
 
 class DeviceState:

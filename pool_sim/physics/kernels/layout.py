@@ -36,6 +36,8 @@ Body = namedtuple('Body', ('mass', 'radius', 'volume', 'cross_section', 'drag_co
 PROPERTIES = ('mass', 'radius', 'volume', 'cross_section', 'drag_coefficient',
               'lift_coefficient', 'lift_area', 'lift_normal', 'external_force', 'lift_slope',
               'stall_angle')
+# Every array of the spheres a step reads: the state, then PROPERTIES.
+SPHERE_ARRAYS = ('position', 'velocity', *PROPERTIES)
 
 
 @compiled
