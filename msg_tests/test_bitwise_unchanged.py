@@ -15,6 +15,7 @@ from test_collisions import lattice, spheres_scene
 
 DEFAULT_POOL_20_S = 'fbfeef678827b112d3b100aa729fec46b87dc2836e25de3cbcd11239ba54a936'
 PILE_1000_3_S = '4ec548b355bbb5c20be19bbf86044c321056d6834f0c5d7f283e6540bd11ee08'
+SOFT_STEP_PILE_1000_3_S = '5b503bbaf5a2507be973b530da9961b9e3e10d3418c2844f7a6019ee2db84e42'
 LOCKSTEP_DEPTH_KEEPER_5_S = 'ea8d55677056b5c117bd6b60b5d5c408963ee609f811953a7c9d74bf1703e976'
 
 
@@ -39,6 +40,18 @@ def test_a_colliding_pile_of_a_thousand_spheres_after_3_s_is_bitwise_unchanged()
         pool__min=[-0.7, -0.7, -4.0], pool__max=[0.7, 0.7, 4.0]))
     sim.advance(3.0)
     assert digest(sim.time, sim.spheres.position, sim.spheres.velocity) == PILE_1000_3_S
+
+
+def test_a_soft_step_pile_of_a_thousand_spheres_after_3_s_is_bitwise_unchanged():
+    # Mixed radii, restitution and friction (sticking and sliding): every branch of the
+    # soft step's contact function (main at 7a124f1, 2026-12-06).
+    sim = Simulation(spheres_scene(
+        lattice(1000, 0.11, -2.8), radius=np.random.default_rng(3).uniform(0.04, 0.06, 1000),
+        mass=1.0, effects=['gravity', 'contact', 'friction', 'collisions'],
+        contact_solver='soft_step', contact__restitution=0.5, contact__static_friction=0.6,
+        contact__kinetic_friction=0.5, pool__min=[-0.7, -0.7, -4.0], pool__max=[0.7, 0.7, 4.0]))
+    sim.advance(3.0)
+    assert digest(sim.time, sim.spheres.position, sim.spheres.velocity) == SOFT_STEP_PILE_1000_3_S
 
 
 def test_a_lockstep_run_with_depth_keeper_is_bitwise_unchanged(pool_sim):
