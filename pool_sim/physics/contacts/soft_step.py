@@ -16,7 +16,8 @@ step:
    partners do not count); contacts are swept colour by colour in a fixed order, which
    is then also a legal parallel order.
 4. Substeps (soft_step.substeps of them): the smooth step's own velocity change (gravity,
-   buoyancy, drag, ...) in equal parts, the remembered impulses applied, a solve with
+   buoyancy, drag, ...; face_crossing.py's bound where its path crossed a face of the
+   pool) in equal parts, the remembered impulses applied, a solve with
    soft constraints (an implicit spring-damper per contact, soft_step.stiffness_hz and
    soft_step.damping_ratio, its push-out no faster than soft_step.push_out_speed), the
    positions moved, and a relax pass without the spring's bias. A contact still apart
@@ -36,6 +37,7 @@ import numpy as np
 
 from ..kernels.step_guard import finite, put_back
 from .colouring import colour_contacts
+from .face_crossing import bound_face_crossings
 from .detection import detect_contacts, take, END_POSITION, END_VELOCITY, RADIUS, \
     START_POSITION, START_VELOCITY
 
@@ -215,6 +217,8 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
                 ends, sphere, radius, settings, dt)
     velocity_rows, moved, change, inverse_mass = _body_rows(sphere, old_velocity, velocity,
                                                             mass, settings, reals, used_real)
+    bound_face_crossings(change, faces_of, sphere, old_position, old_velocity, position,
+                         velocity, radius, faces, settings[0], dt)
     solve_order = np.empty_like(ends)  # each slot's two rows
     for c in range(total):
         solve_order[slot[c], 0], solve_order[slot[c], 1] = ends[c, 0], ends[c, 1]
