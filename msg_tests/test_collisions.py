@@ -246,7 +246,6 @@ def test_no_contact_adds_energy(integrator, radius, ratio, mass_low, mass_high, 
     assert sim.mechanical_energy().sum() <= allowed + 1e-12 * abs(allowed) + 1e-15
 
 
-
 @pytest.mark.xfail(strict=True, reason='a known sequential_impulses fault, not yet mended: '
                    'a sphere thrown at a very buoyant one on the floor gains 4.9e-4 J')
 def test_a_sphere_thrown_at_a_buoyant_one_on_the_floor_gains_no_energy():
@@ -259,6 +258,7 @@ def test_a_sphere_thrown_at_a_buoyant_one_on_the_floor_gains_no_energy():
         integrator='semi_implicit_euler', radius=0.01, ratio=1.0, mass_low=0.01,
         mass_high=1.0, restitution=1.0, speed=4.0, gap=0.0, offset=0.0, sideways=0.0,
         in_water=True)
+
 
 # Piles at rest.
 

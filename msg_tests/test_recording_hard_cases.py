@@ -126,7 +126,6 @@ def test_a_second_signal_during_headless_clean_up_still_finishes_the_file(
     assert summary.statistics.message_count > 3000 and log_times == sorted(log_times)
 
 
-
 def test_a_second_signal_while_headless_says_it_stopped_is_ignored(tmp_path, monkeypatch):
     # The test above, made exact: the first SIGTERM comes from an instant, the second while
     # headless writes 'stopped at', the moment a second signal 50 ms after the first once

@@ -138,7 +138,6 @@ def test_spheres_dropped_through_the_surface_in_a_crowd_do_not_sink_into_each_ot
     assert deepest < 0.2
 
 
-
 def test_a_dropped_pile_of_spheres_denser_than_water_comes_to_rest():
     # The contact issue's resting pile, at 2 000 spheres (results/collisions/resting_pile.md
     # has 10 000): every sphere sinks, lands on the floor or on others, and rests. Its goal:

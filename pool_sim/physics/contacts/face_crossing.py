@@ -5,8 +5,10 @@ The smooth step knows no faces: a sphere it takes past the floor feels the force
 where it cannot be. Where the water's surface is at the floor (a dry pool), a sphere of
 1e-6 kg taken 3 cm past it felt the water's buoyancy there and turned from 6 m/s down to
 41.7 m/s up within one step, a change no contact takes back, since it points away from
-the floor. The per-sphere face rule (kernels/faces.py) keeps, along the face's normal,
-the speed the sphere reached the face at (impact_speed); so does this.
+the floor. This keeps, along the face's normal, the speed the sphere reached the face at
+(kernels/faces.py's impact_speed, as the per-sphere face rule takes it), whichever way
+the smooth step's end velocity points: the per-sphere rule keeps an end velocity that
+leaves the face, and so would keep this one.
 """
 import numba
 
@@ -24,7 +26,7 @@ def bound_face_crossings(change, faces_of, sphere, old_position, old_velocity, p
     the pool's low then high corner; radius (n,) m."""
     for f in range(faces_of.shape[0]):
         k, face = faces_of[f, 0], faces_of[f, 1]
-        i, axis = sphere[k], faces_of[f, 1] % 3
+        i, axis = sphere[k], face % 3
         inward = 1.0 if face < 3 else -1.0  # the face's normal, into the pool
         before = inward * (old_position[axis, i] - faces[face]) - radius[i]
         past = radius[i] - inward * (position[axis, i] - faces[face])
