@@ -189,6 +189,7 @@ def test_a_sphere_lighter_than_air_is_not_flung_off_the_floor():
     sim, start = elastic_glancing_bounce(1e-6, ['gravity', 'buoyancy', 'contact',
                                                 'collisions'])
     assert abs(sim.spheres.velocity[2, 1]) < 7.0
+    assert energy(sim) - start <= 0.0  # measured -1.1e-6 J
 
 
 # What other engines got wrong.
