@@ -9,20 +9,21 @@ rests under each.
 The scene is benchmarks/collisions.py's (spheres dropped from a lattice into the default
 pool, 200 Hz, one thread), run for `--seconds` with each solver. Its densities start at
 300 kg/m^3: a quarter float, and those a little denser than water are still sinking at 12 s.
-`--least-density 1500` makes every sphere sink and come to rest: a resting pile. Every half second of
-simulated time it samples the deepest overlap (of the smaller radius), the rms and the
+`--least-density 1500` makes every sphere sink and come to rest: a resting pile. Every half
+second of simulated time it samples the deepest overlap (of the smaller radius), the rms and the
 fastest speed. At three moments (MOMENTS_S: falling through the water, landing on the
 floor and on each other, and the end: the pile), it times, from the same state, turn by
 turn, the median of REPEATS:
 
 - one step without `collisions` (the smooth step and the faces);
 - contact detection alone (detection.detect_contacts, the workspace the step uses);
-- a sort of as many keys as the step has contacts (np.argsort in numba, as soft_step's warm
-  start sorts; sequential_impulses sorts none, and its rows leave the column empty);
+- soft_step's warm-start matching: the detected pairs' keys, in detection's order, each
+  looked up in the memory the step left (memory.matched; sequential_impulses remembers
+  nothing, and its rows leave the column empty);
 - one step with `collisions`.
 
 The solve is the colliding step less the step without collisions and less detection: it
-holds the sort, the colouring, the rows, the substeps and the restitution pass. Its cost per
+holds the matching, the colouring, the rows, the substeps and the restitution pass. Its cost per
 contact per pass divides it by the contacts (pairs, and faces touched by spheres in pairs,
 as the solver remembers them) and the sweeps over them: three a substep (warm start, solve,
 relax) for soft_step; for sequential_impulses, its sweeps are not counted here, so the
@@ -33,7 +34,6 @@ from pathlib import Path
 import statistics
 import time
 
-import numba
 import numpy as np
 
 from benchmarks.collisions import deepest_overlap, FRICTION, RATE_HZ, RESTITUTION
@@ -41,6 +41,7 @@ from benchmarks.common import dropped_scene, provenance
 from pool_sim.physics import Simulation, stepper
 from pool_sim.physics.contacts import soft_step, SOLVERS, workspace
 from pool_sim.physics.contacts.detection import detect_contacts
+from pool_sim.physics.contacts.memory import matched
 
 REPEATS = 15
 MOMENTS_S = {1.5: 'falling', 5.0: 'landing'}  # and the end: 'pile'
@@ -55,33 +56,36 @@ def scene(count, solver, collisions=True, least_density=300.0, substeps=None):
         **{'soft_step.substeps': substeps})
 
 
-@numba.njit
-def _sort(keys):
-    return np.argsort(keys)
-
-
 def contacts_of(colliding, smooth):
     """(pairs detected from colliding's state, contacts its solver remembers after a step
-    from there: pairs and faces, or None, and detect_contacts' input: the state, where the
-    smooth step (smooth, at the same state) ends, the workspace)."""
+    from there: pairs and faces, or None, detect_contacts' input: the state, where the
+    smooth step (smooth, at the same state) ends, the workspace; and the pairs' memory keys
+    and home rows, in detection's order, as soft_step makes them)."""
     dt = colliding.max_step
     state = colliding.spheres.position.copy(), colliding.spheres.velocity.copy()
     smooth.step()
     after = smooth.spheres.position.copy(), smooth.spheres.velocity.copy()
     colliding.step()
-    remembered = int(colliding._memory[2][0]) if colliding._memory[0].size else None
+    remembered = int(colliding._memory[2].sum()) if colliding._memory[0].size else None
     colliding.spheres.position[:], colliding.spheres.velocity[:] = state
     reals, wholes = workspace(colliding.spheres.count)
     contacts, _, _ = detect_contacts(*state, *after, colliding.spheres.radius, dt, reals,
                                      wholes)
-    return contacts.pairs.shape[1], remembered, (state, after, reals, wholes)
+    spheres = contacts.order[contacts.pairs]
+    identity = colliding._identity[spheres]
+    lower = np.argmin(identity, axis=0)
+    columns = np.arange(spheres.shape[1])
+    keys = (identity[lower, columns] << 32) | identity[1 - lower, columns]
+    return (contacts.pairs.shape[1], remembered, (state, after, reals, wholes),
+            (keys, spheres[lower, columns]))
 
 
-def time_stages(colliding, smooth, key_count, detection_input):
-    """Median seconds of each stage, timed in turns from colliding's state."""
+def time_stages(colliding, smooth, detection_input, lookups):
+    """Median seconds of each stage, timed in turns from colliding's state (lookups: the
+    pairs' memory keys and home rows)."""
     state = (colliding.spheres.position.copy(), colliding.spheres.velocity.copy())
     (start, end, reals, wholes), dt = detection_input, colliding.max_step
-    keys = np.random.default_rng(0).integers(0, 2**40, max(key_count, 1))
+    memory = colliding._memory
 
     def restore(simulation):
         simulation.spheres.position[:], simulation.spheres.velocity[:] = state
@@ -97,12 +101,14 @@ def time_stages(colliding, smooth, key_count, detection_input):
         detect_contacts(*start, *end, colliding.spheres.radius, dt, reals, wholes)
         return time.perf_counter() - began
 
-    def sort():
+    def match():
         began = time.perf_counter()
-        _sort(keys)
+        matched(*lookups, memory[0], memory[2])
         return time.perf_counter() - began
     stages = {'without collisions': lambda: step(smooth), 'detection': detect,
-              'sort': sort, 'with collisions': lambda: step(colliding)}
+              'with collisions': lambda: step(colliding)}
+    if memory[0].shape[0]:  # a solver that remembers (rows of memory are the spheres')
+        stages['matching'] = match
     times = {name: [] for name in stages}
     for _ in range(REPEATS):
         for name, stage in stages.items():
@@ -131,8 +137,8 @@ def run(count, seconds, solver, least_density, substeps):
         if sample in moments:
             smooth.spheres.position[:] = colliding.spheres.position
             smooth.spheres.velocity[:] = colliding.spheres.velocity
-            pairs, remembered, detection_input = contacts_of(colliding, smooth)
-            stages = time_stages(colliding, smooth, remembered or pairs, detection_input)
+            pairs, remembered, detection_input, lookups = contacts_of(colliding, smooth)
+            stages = time_stages(colliding, smooth, detection_input, lookups)
             rows.append((moments[sample], pairs, remembered, stages))
     return samples, rows
 
@@ -141,25 +147,26 @@ def stage_table(count, results, substeps=None):
     lines = [f'{count} spheres, one step, µs (median of {REPEATS}, in turns); the solve is '
              'the step with collisions less the step without and less detection', '',
              '| solver | moment | pairs | contacts remembered | step without collisions | '
-             'detection | sort of the keys | solve | step with collisions | '
-             'ns per sphere-step | broad phase share | sort share | solve share | '
+             'detection | warm-start matching | solve | step with collisions | '
+             'ns per sphere-step | broad phase share | matching share | solve share | '
              'ns per contact per pass |', '|' + '---|' * 2 + '---:|' * 12]
     for solver, (_, rows) in results.items():
         passes = 3 * (substeps or soft_step.SUBSTEPS) if solver == 'soft_step' else None
 
-        def sort(value, form, sorts=solver == 'soft_step'):
-            return format(value, form) if sorts else ''  # sequential_impulses sorts no keys
+        def match(value, form, matches=solver == 'soft_step'):
+            return format(value, form) if matches else ''  # sequential_impulses: no memory
         for moment, pairs, remembered, t in rows:
             total = t['with collisions']
             solve = total - t['without collisions'] - t['detection']
             per_contact = (f'{solve / ((remembered or pairs) * passes) * 1e9:.1f}'
                            if passes and (remembered or pairs) else '')
+            matching = t.get('matching', 0.0)
             lines.append(
                 f'| {solver} | {moment} | {pairs} | {remembered if remembered else ""} | '
                 f'{t["without collisions"] * 1e6:.0f} | {t["detection"] * 1e6:.0f} | '
-                f'{sort(t["sort"] * 1e6, ".0f")} | {solve * 1e6:.0f} | {total * 1e6:.0f} | '
+                f'{match(matching * 1e6, ".0f")} | {solve * 1e6:.0f} | {total * 1e6:.0f} | '
                 f'{total / count * 1e9:.0f} | {t["detection"] / total:.2f} | '
-                f'{sort(t["sort"] / total, ".2f")} | {solve / total:.2f} | {per_contact} |')
+                f'{match(matching / total, ".2f")} | {solve / total:.2f} | {per_contact} |')
     return lines
 
 

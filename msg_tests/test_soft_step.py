@@ -14,6 +14,7 @@ from benchmarks.common import dropped_scene
 from pool_sim.physics import INTEGRATORS, Simulation
 from pool_sim.physics.contacts.colouring import colour_contacts, COLOURS
 from pool_sim.physics.contacts.detection import overlaps
+from pool_sim.physics.contacts.memory import CONTACTS_PER_SPHERE
 from test_collisions import lattice, log_uniform, spheres_scene
 
 SOFT = {'contact_solver': 'soft_step'}
@@ -246,8 +247,10 @@ def test_a_resting_pile_does_not_creep():
 # Contacts kept by identity.
 
 def remembered(sim):
-    keys, forces, count = sim._memory
-    return dict(zip(keys[:count[0]].tolist(), forces[:count[0], 0].tolist()))
+    """{key: normal force N} of every contact the solver remembers."""
+    keys, forces, held = sim._memory
+    return {int(keys[row, k]): float(forces[row, k, 0])
+            for row in range(held.size) for k in range(held[row])}
 
 
 def test_a_remove_and_a_spawn_keep_the_other_spheres_contacts():
@@ -265,10 +268,11 @@ def test_a_remove_and_a_spawn_keep_the_other_spheres_contacts():
     kept = dict(zip(sim.spheres.names, sim._identity.tolist()))
     assert all(kept[name] == identity[name] for name in names)
     assert kept['late'] not in identity.values()
-    assert remembered(sim) == before  # the memory is untouched by the change itself
+    # The change itself keeps every contact but those the removed sphere's row held.
+    mine = identity[gone]
+    assert remembered(sim) == {key: force for key, force in before.items() if key >> 32 != mine}
     sim.step()
     after = remembered(sim)
-    mine = identity[gone]
     others = {key for key in before if mine not in (key >> 32, key & 0xFFFFFFFF)}
     # The other contacts still there carry on from their own forces, not another's: all
     # but those the removed sphere's weight bore on stay within half of theirs.
@@ -280,6 +284,54 @@ def test_a_remove_and_a_spawn_keep_the_other_spheres_contacts():
     sim.change_spheres(scene.with_values(sphere_names=names + [gone]))
     assert dict(zip(sim.spheres.names, sim._identity.tolist()))[gone] not in (
         set(identity.values()) | {kept['late']})
+
+
+def test_a_reordering_carries_each_spheres_contacts_to_its_new_place():
+    # The memory is kept a row per sphere: change_spheres must move each row with its
+    # sphere. A settled pile, its spheres named in reverse order, goes on at rest; with
+    # its memory wiped instead, the first step starts every contact from nothing and the
+    # pile sags (a millimetre a second).
+    scene = soft_scene(lattice(27, 0.105, -3.8), radius=0.05, effects=PILE_EFFECTS,
+                       pool__min=[-0.2, -0.2, -4.0], pool__max=[0.2, 0.2, 4.0])
+    fastest = {}
+    for wiped in (False, True):
+        sim = Simulation(scene)
+        sim.advance(2.0)
+        assert np.abs(sim.spheres.velocity).max() < 1e-9
+        before = remembered(sim)
+        sim.change_spheres(scene.with_values(sphere_names=scene.sphere_names[::-1]))
+        keys, _, held = sim._memory
+        assert remembered(sim) == before
+        for row, identity in enumerate(sim._identity):  # a row holds its own sphere's
+            assert all(keys[row, k] >> 32 == identity for k in range(held[row]))
+        if wiped:
+            sim._memory = None
+        sim.step()
+        fastest[wiped] = np.linalg.norm(sim.spheres.velocity, axis=0).max()
+    assert fastest[False] < 1e-9
+    assert fastest[True] > 1e-4
+
+
+def test_a_sphere_with_more_contacts_than_its_row_holds_keeps_the_first():
+    # Sphere 0 (the smallest identity) owns all twelve of its close-packed neighbours'
+    # contacts; its row holds CONTACTS_PER_SPHERE of them, in the order they came, and
+    # the rest start the next step from no force. Nothing else changes.
+    radius = 0.05
+    shells = [(x, y, 0.0) for x in (-1, 1) for y in (-1, 1)] + [
+        (x, 0.0, z) for x in (-1, 1) for z in (-1, 1)] + [
+        (0.0, y, z) for y in (-1, 1) for z in (-1, 1)]
+    reach = 2.0 * radius * (1.0 - 1e-3) / math.sqrt(2.0)  # overlapping by a thousandth
+    position = [(0.0, 0.0, 0.0)] + [(reach * x, reach * y, reach * z) for x, y, z in shells]
+    sim = Simulation(soft_scene(position, radius=radius))
+    sim.step()
+    keys, _, held = sim._memory
+    assert held[0] == CONTACTS_PER_SPHERE
+    owned = [key for key in remembered(sim) if key >> 32 == sim._identity[0]]
+    assert len(owned) == CONTACTS_PER_SPHERE
+    momentum = sim.spheres.velocity @ sim.spheres.mass
+    sim.run(10, sim.max_step)
+    assert np.all(np.isfinite(sim.spheres.velocity))
+    np.testing.assert_allclose(sim.spheres.velocity @ sim.spheres.mass, momentum, atol=1e-12)
 
 
 def test_a_reset_forgets_every_contact():

@@ -9,7 +9,7 @@ import time
 import numpy as np
 
 from .contacts import contact_memory, SOLVES_FACES, workspace as collision_workspace
-from .contacts.memory import memory_capacity
+from .contacts.memory import carried_memory
 from .kernels.effects import heave_added_masses
 from .kernels.layout import properties_of, SPHERE_ARRAYS
 from .media import cap_volume_integral, linear_volume_integral
@@ -134,8 +134,8 @@ class Simulation:
                              *collision_workspace(spheres.count if 'collisions' in
                                                   self.scene['effects'] else 0))
         remembered = spheres.count if self._remembers else 0
-        if self._memory is None or self._memory[0].size != memory_capacity(remembered):
-            self._memory = contact_memory(remembered, self._memory)
+        if self._memory is None or self._memory[0].shape[0] != remembered:
+            self._memory = contact_memory(remembered)
         arrays = (spheres.position, spheres.velocity, *properties_of(spheres),
                   *self._constants)
         put_back = self.stepper.run(arrays, (*self._scratch, self._identity, *self._memory),
@@ -262,7 +262,11 @@ class Simulation:
         # Identities of spheres removed are retired (a later sphere of that name is another).
         self._identities = {name: self._identities[name] for name in old_names
                             if name in new_index}
+        old_identity = self._identity
         self._identify()
+        # Each kept sphere's remembered contacts move with it to its new index.
+        if self._memory is not None and self._memory[0].shape[0] == old_identity.size:
+            self._memory = carried_memory(self._memory, old_identity, self._identity)
 
     def sphere_state(self, name):
         """(position (3,), velocity (3,)) copies for one sphere, m and m/s."""

@@ -225,7 +225,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                   lift_coefficient, lift_area, lift_normal, external_force, lift_slope,
                   stall_angle, environment, wave_table, pool, contact, solver_settings, spare_position,
                   spare_velocity, flagged, failed, collision_reals, collision_wholes,
-                  identity, memory_keys, memory_forces, memory_count, steps, dt):
+                  identity, memory_keys, memory_forces, memory_held, steps, dt):
         """Take `steps` steps of dt s in place; returns how many times the step guard put a
         sphere back (flagged in failed (n,), which must be zero on entry).
 
@@ -306,7 +306,7 @@ def _compose(integrator_code, listed, has_contact, has_friction, has_collisions,
                         faces, has_contact, contact_parameters, has_friction, resting_speed,
                         gravity_step, floor_supports, failed, collision_reals,
                         collision_wholes, dt, flagged, identity, memory_keys, memory_forces,
-                        memory_count, solver_settings)
+                        memory_held, solver_settings)
         if steps % 2 == 1:  # the last step wrote the spare pair
             for i in range(count):
                 for axis in range(3):
@@ -373,7 +373,7 @@ class Stepper:
         """`steps` steps of dt s on arrays (the kernel's leading arguments, as
         Simulation packs them) with scratch = (spare_position, spare_velocity, flagged,
         failed, collision_reals, collision_wholes, identity, memory_keys, memory_forces,
-        memory_count).
+        memory_held).
 
         Returns how many times the guard put a sphere back."""
         global _threading_layer

@@ -1,30 +1,60 @@
 """What a contact solver carries from one step to the next (soft_step.py's warm start):
-each contact's key (its two spheres' identities, or its sphere's and face's) and the
-force it carried, sorted by key. Kept by the Simulation beside the spheres, emptied on a
-reset; a spawn or a remove keeps it (keys name spheres, not places)."""
+each contact's key (its two spheres' identities, or its sphere's and face's) and the force
+it carried, in a row of the sphere it belongs to: of a pair, the sphere with the smaller
+identity; of a face, its sphere. A contact finds last step's force among at most
+CONTACTS_PER_SPHERE keys of one row: no sort and no hash table, and the slots fill in the
+order the contacts come, so a run is reproducible.
+
+Kept by the Simulation beside the spheres, row for row; emptied on a reset. A spawn or a
+remove moves each kept sphere's row with it (carried_memory); a key names spheres, not
+places, so no pair's force is handed to another."""
+import numba
 import numpy as np
 
-# Room for this many contacts a sphere (pairs and faces): a dense pile has ~6 pairs and a
-# few faces per sphere; a step with more remembers the lowest keys, and the rest start
-# from no force.
+# Slots a row: one cache line of keys. A sphere in a dense pile owns about half its ~6-12
+# pairs and its faces; a step with more starts the rest from no force.
 CONTACTS_PER_SPHERE = 8
 
 
-def memory_capacity(count):
-    """Contacts remembered for `count` spheres."""
-    return CONTACTS_PER_SPHERE * count + 16 if count >= 2 else 0
+def contact_memory(count):
+    """(keys (count, CONTACTS_PER_SPHERE) int64, forces (count, CONTACTS_PER_SPHERE, 4)
+    float64: normal N, friction (3) N; held (count,) int64: the slots of each row in use),
+    for `count` spheres, empty."""
+    return (np.zeros((count, CONTACTS_PER_SPHERE), dtype=np.int64),
+            np.zeros((count, CONTACTS_PER_SPHERE, 4)), np.zeros(count, dtype=np.int64))
 
 
-def contact_memory(count, previous=None):
-    """(keys (capacity,) int64, forces (capacity, 4) float64: normal N, friction (3) N,
-    remembered (1,) int64) for `count` spheres, empty, or holding what `previous` (such a
-    triple) held, as much of it as fits (its lowest keys)."""
-    capacity = memory_capacity(count)
-    keys = np.zeros(capacity, dtype=np.int64)
-    forces = np.zeros((capacity, 4))
-    remembered = np.zeros(1, dtype=np.int64)
-    if previous is not None:
-        kept = min(int(previous[2][0]), capacity)
-        keys[:kept], forces[:kept] = previous[0][:kept], previous[1][:kept]
-        remembered[0] = kept
-    return keys, forces, remembered
+def carried_memory(memory, old_identity, new_identity):
+    """memory (contact_memory's triple, its rows the spheres of old_identity (n,) int64) for
+    the spheres of new_identity: a sphere in both keeps its row, a new one starts empty."""
+    carried = contact_memory(new_identity.size)
+    if memory is None or memory[0].shape[0] != old_identity.size or old_identity.size == 0:
+        return carried
+    order = np.argsort(old_identity)
+    place = np.minimum(np.searchsorted(old_identity[order], new_identity),
+                       old_identity.size - 1)
+    old_row = order[place]
+    kept = np.flatnonzero(old_identity[old_row] == new_identity)
+    for new, old in zip(carried, memory):
+        new[kept] = old[old_row[kept]]
+    return carried
+
+
+@numba.njit(error_model='numpy', inline='always')
+def remembered_slot(memory_keys, memory_held, home, key):
+    """The slot of row `home` holding `key` (int64), or -1: a scan of the row's held slots
+    without branches (a row is one cache line)."""
+    slot = -1
+    for k in range(memory_held[home]):
+        slot = k if memory_keys[home, k] == key else slot
+    return slot
+
+
+@numba.njit(error_model='numpy')
+def matched(keys, homes, memory_keys, memory_held):
+    """How many of the contacts (keys (m,), each in row homes (m,)) the memory holds: the
+    warm start's matching alone, for benchmarks/contact_stages.py."""
+    found = 0
+    for c in range(keys.size):
+        found += remembered_slot(memory_keys, memory_held, homes[c], keys[c]) >= 0
+    return found

@@ -68,7 +68,7 @@ _NX, _NY, _NZ, _ALLOWED, _EXCESS, _RESTING, _CLOSING, _REDUCED_MASS = range(8)
 def resolve_collisions(old_position, old_velocity, position, velocity, mass, radius, faces,
                        has_faces, contact, has_friction, resting_speed, gravity_step,
                        floor_supports, failed, reals, wholes, dt, flagged, identity,
-                       memory_keys, memory_forces, memory_count, settings):
+                       memory_keys, memory_forces, memory_held, settings):
     """Find and resolve this step's sphere-sphere contacts in place (position, velocity:
     the step's end; old_*: its start). faces: the pool's (min_x, min_y, min_z, max_x,
     max_y, max_z) when has_faces. contact: (restitution, static_friction,

@@ -8,10 +8,9 @@ step:
    sphere touching no other keeps the per-sphere face rule, kernels/faces.py). Each is
    keyed by the identities of its two spheres (or its sphere and face), never by index or
    cell: a spawn or a remove cannot hand one pair's impulse to another.
-2. Warm start: the keys are sorted (numpy's sort) and merged with last step's, also
-   sorted, so a contact that persists starts from the force it carried (stored per
-   second, so a change of step size scales it); its friction is turned into the new
-   tangent plane.
+2. Warm start: each key is looked up in its sphere's row of last step's (memory.py), so
+   a contact that persists starts from the force it carried (stored per second, so a
+   change of step size scales it); its friction is turned into the new tangent plane.
 3. Colours: greedily, so that no two contacts of a colour share a sphere (static
    partners do not count); contacts are swept colour by colour in a fixed order, which
    is then also a legal parallel order.
@@ -38,6 +37,7 @@ import numpy as np
 from ..kernels.step_guard import finite, put_back
 from .colouring import colour_contacts
 from .face_crossing import bound_face_crossings
+from .memory import CONTACTS_PER_SPHERE, remembered_slot
 from .detection import detect_contacts, take, END_POSITION, END_VELOCITY, RADIUS, \
     START_POSITION, START_VELOCITY
 
@@ -169,26 +169,25 @@ def restitute_contact(rows, s, a, b, velocity, inverse_mass, threshold, restitut
 def resolve_collisions(old_position, old_velocity, position, velocity, mass, radius, faces,
                        has_faces, contact, has_friction, resting_speed, gravity_step,
                        floor_supports, failed, reals, wholes, dt, flagged, identity, memory_keys,
-                       memory_forces, memory_count, settings):
+                       memory_forces, memory_held, settings):
     """Find and resolve this step's contacts in place (position, velocity: the smooth
     step's end, before the faces' pass; old_*: the step's start); the arguments as
     sequential_impulses.resolve_collisions takes them, and: flagged (n,) uint8, cleared for
     the spheres solved here (their faces are solved here too); identity (n,) int64, each
-    sphere's, unique over the run; memory_keys (capacity,) int64, memory_forces
-    (capacity, 4) (normal N, friction (3) N) and memory_count (1,) int64: last step's
-    contacts, sorted by key, replaced by this step's; settings: (substeps, stiffness_hz,
-    damping_ratio, push_out_speed m/s).
+    sphere's, unique over the run; memory_keys, memory_forces and memory_held: last step's
+    contacts (memory.contact_memory's arrays, a row per sphere), replaced by this step's;
+    settings: (substeps, stiffness_hz, damping_ratio, push_out_speed m/s).
 
     Returns how many spheres the step guard put back (flagged in failed)."""
     count = radius.size
     if count < 2:
-        memory_count[0] = 0
+        memory_held[:] = 0
         return 0
     contacts, used_real, used_whole = detect_contacts(old_position, old_velocity, position,
                                                      velocity, radius, dt, reals, wholes)
     pairs, order = contacts.pairs, contacts.order
     if pairs.shape[1] == 0:
-        memory_count[0] = 0
+        memory_held[:] = 0
         return 0
     sphere, row_of, used_whole = _members(pairs, order, count, wholes, used_whole)
     members = sphere.size
@@ -198,23 +197,26 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     ends, used_whole = take(wholes, used_whole, 2 * total)
     ends = ends.reshape((total, 2))
     keys, used_whole = take(wholes, used_whole, total)
+    homes, used_whole = take(wholes, used_whole, total)  # the memory's row of each
     for c in range(pairs.shape[1]):
         a, b = row_of[pairs[0, c]], row_of[pairs[1, c]]
         ends[c, 0], ends[c, 1] = a, b
-        i, j = identity[sphere[a]], identity[sphere[b]]
-        keys[c] = (min(i, j) << 32) | max(i, j)
+        i, j = sphere[a], sphere[b]
+        lower = i if identity[i] < identity[j] else j
+        keys[c] = (identity[lower] << 32) | identity[i + j - lower]
+        homes[c] = lower
     for f in range(total - pairs.shape[1]):
         c = pairs.shape[1] + f
         ends[c, 0], ends[c, 1] = faces_of[f, 0], ground
         keys[c] = (identity[sphere[faces_of[f, 0]]] << 32) | (_FACE_KEY + faces_of[f, 1])
+        homes[c] = sphere[faces_of[f, 0]]
     rows, used_real = take(reals, used_real, _COLUMNS * total)
     rows = rows.reshape((total, _COLUMNS))
     slot, _ = colour_contacts(ends, ground, wholes, used_whole)
-    sorted_keys = np.argsort(keys)
     _fill_rows(rows, slot, ends, contacts, faces_of, sphere, ground, old_position,
                old_velocity, radius, mass, faces, contact, has_friction, settings, dt)
-    _warm_start(rows, slot, keys, sorted_keys, memory_keys, memory_forces, memory_count[0],
-                ends, sphere, radius, settings, dt)
+    _warm_start(rows, slot, keys, homes, memory_keys, memory_forces, memory_held, ends,
+                sphere, radius, settings, dt)
     velocity_rows, moved, change, inverse_mass = _body_rows(sphere, old_velocity, velocity,
                                                             mass, settings, reals, used_real)
     bound_face_crossings(change, faces_of, sphere, old_position, old_velocity, position,
@@ -227,8 +229,7 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     for s in range(total):
         restitute_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity_rows,
                           inverse_mass, threshold, contact[0])
-    _remember(rows, slot, keys, sorted_keys, memory_keys, memory_forces, memory_count, settings,
-              dt)
+    _remember(rows, slot, keys, homes, memory_keys, memory_forces, memory_held, settings, dt)
     put_back_count = 0
     for k in range(members):
         i = sphere[k]
@@ -329,37 +330,32 @@ def _fill_rows(rows, slot, ends, contacts, faces_of, sphere, ground, old_positio
 
 
 @numba.njit(error_model='numpy')
-def _warm_start(rows, slot, keys, sorted_keys, memory_keys, memory_forces, remembered,
-                ends, sphere, radius, settings, dt):
-    """Last step's forces (memory_*, its first `remembered`, sorted by key) into the rows
-    of the contacts that persist, as impulses over this step's substep, friction turned
-    into the new tangent plane, the spring stiffened if that load would press it more than
-    LOADED_OVERLAP (ends, sphere, radius: for the smaller radius): a merge of two sorted
-    lists."""
+def _warm_start(rows, slot, keys, homes, memory_keys, memory_forces, memory_held, ends,
+                sphere, radius, settings, dt):
+    """Last step's forces (memory_*: each key looked up in its home row) into the rows of
+    the contacts that persist, as impulses over this step's substep, friction turned into
+    the new tangent plane, the spring stiffened if that load would press it more than
+    LOADED_OVERLAP (ends, sphere, radius: for the smaller radius)."""
     h = dt / settings[0]
     ground = sphere.size
-    j = 0
-    for t in range(sorted_keys.size):
-        c = sorted_keys[t]
-        key = keys[c]
-        while j < remembered and memory_keys[j] < key:
-            j += 1
-        if j == remembered:
-            break
-        if memory_keys[j] != key:
+    for c in range(keys.size):
+        home = homes[c]
+        j = remembered_slot(memory_keys, memory_held, home, keys[c])
+        if j < 0:
             continue
+        held = memory_forces[home, j]
         s = slot[c]
         nx, ny, nz = rows[s, _NX], rows[s, _NY], rows[s, _NZ]
-        fx, fy, fz = memory_forces[j, 1] * h, memory_forces[j, 2] * h, memory_forces[j, 3] * h
+        fx, fy, fz = held[1] * h, held[2] * h, held[3] * h
         along = fx * nx + fy * ny + fz * nz
-        rows[s, _NORMAL] = memory_forces[j, 0] * h
+        rows[s, _NORMAL] = held[0] * h
         rows[s, _FX], rows[s, _FY], rows[s, _FZ] = (fx - along * nx, fy - along * ny,
                                                     fz - along * nz)
         a, b = ends[c, 0], ends[c, 1]
         smaller = radius[sphere[a]] if b == ground else min(radius[sphere[a]],
                                                             radius[sphere[b]])
         # The frequency whose spring the load presses LOADED_OVERLAP x smaller.
-        needed = math.sqrt(max(memory_forces[j, 0], 0.0) / (
+        needed = math.sqrt(max(held[0], 0.0) / (
             rows[s, _MASS] * LOADED_OVERLAP * smaller)) / (2.0 * math.pi)
         most = _MOST_HZ_PER_SUBSTEP_RATE / h
         if needed > min(settings[1], most):
@@ -368,21 +364,24 @@ def _warm_start(rows, slot, keys, sorted_keys, memory_keys, memory_forces, remem
 
 
 @numba.njit(error_model='numpy')
-def _remember(rows, slot, keys, sorted_keys, memory_keys, memory_forces, memory_count,
-              settings, dt):
-    """This step's contacts, sorted by key, as forces (N) in memory_* for the next step
-    (as many as it holds: the rest start from none)."""
+def _remember(rows, slot, keys, homes, memory_keys, memory_forces, memory_held, settings,
+              dt):
+    """This step's contacts as forces (N) in memory_* for the next step, each in its home
+    row, in contact order (as many as a row holds: the rest start from none)."""
     per_second = settings[0] / dt
-    kept = min(sorted_keys.size, memory_keys.size)
-    for t in range(kept):
-        c = sorted_keys[t]
+    memory_held[:] = 0
+    for c in range(keys.size):
+        home = homes[c]
+        k = memory_held[home]
+        if k == CONTACTS_PER_SPHERE:
+            continue
         s = slot[c]
-        memory_keys[t] = keys[c]
-        memory_forces[t, 0] = rows[s, _NORMAL] * per_second
-        memory_forces[t, 1] = rows[s, _FX] * per_second
-        memory_forces[t, 2] = rows[s, _FY] * per_second
-        memory_forces[t, 3] = rows[s, _FZ] * per_second
-    memory_count[0] = kept
+        memory_keys[home, k] = keys[c]
+        memory_forces[home, k, 0] = rows[s, _NORMAL] * per_second
+        memory_forces[home, k, 1] = rows[s, _FX] * per_second
+        memory_forces[home, k, 2] = rows[s, _FY] * per_second
+        memory_forces[home, k, 3] = rows[s, _FZ] * per_second
+        memory_held[home] = k + 1
 
 
 @numba.njit(error_model='numpy')
