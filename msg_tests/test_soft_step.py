@@ -6,7 +6,7 @@ no sphere, and bitwise reproducible runs.
 """
 import math
 
-from hypothesis import assume, given, settings, strategies as st
+from hypothesis import assume, example, given, settings, strategies as st
 import numpy as np
 import pytest
 
@@ -53,6 +53,12 @@ def test_a_free_pair_keeps_its_momentum_exactly_and_gains_no_energy(
 
 
 @settings(deadline=None)
+# Found by the deep profile once restitution 1 was let in: thrown down at 9 m/s and
+# sideways at 2, the sphere glanced off the one below and never reached the floor, yet
+# the floor's speculative contact, which had only slowed its approach, bounced it up at
+# 9 m/s: 0.129 J gained. A push counts toward a bounce only while touching now.
+@example(integrator='explicit_euler', radius=0.01, ratio=1.0, mass_low=1.0, mass_high=1.0,
+         restitution=1.0, speed=9.0, offset=-0.78125, sideways=-2.0, in_water=False)
 @given(st.sampled_from(list(INTEGRATORS)), log_uniform(0.01, 0.3), log_uniform(0.1, 10.0),
        log_uniform(0.01, 100.0), log_uniform(0.01, 100.0), st.floats(0.0, 1.0),
        st.floats(0.0, 10.0), st.floats(-0.8, 0.8), st.floats(-3.0, 3.0), st.booleans())
@@ -65,10 +71,9 @@ def test_no_soft_contact_adds_energy(integrator, radius, ratio, mass_low, mass_h
     low_z = -4.0 + radius
     effects = ['gravity', 'buoyancy', 'contact', 'collisions']
     mass = np.clip([mass_low * 4190 * radius**3, mass_high * 4190 * top_radius**3], 1e-6, 1e9)
-    # Known limits: the thrown sphere no heavier than the one it hits
-    # (test_a_heavy_sphere_on_a_light_one_gains_a_bounded_energy), restitution below 1
-    # (test_an_elastic_glancing_bounce_gains_a_bounded_energy).
-    assume(mass[1] <= mass[0] and restitution < 0.99)
+    # A known limit: the thrown sphere no heavier than the one it hits
+    # (test_a_heavy_sphere_on_a_light_one_gains_a_bounded_energy).
+    assume(mass[1] <= mass[0])
 
     def simulation(with_collisions):
         return Simulation(soft_scene(

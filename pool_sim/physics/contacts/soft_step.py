@@ -16,15 +16,14 @@ step:
    is then also a legal parallel order.
 4. Substeps (soft_step.substeps of them): the smooth step's own velocity change (gravity,
    buoyancy, drag, ...; face_crossing.py's bound where its path crossed a face of the
-   pool) in equal parts, the remembered impulses applied, a solve with
-   soft constraints (an implicit spring-damper per contact, soft_step.stiffness_hz and
-   soft_step.damping_ratio, its push-out no faster than soft_step.push_out_speed), the
-   positions moved, and a relax pass without the spring's bias. A contact still apart
-   may close no more than its gap (speculative). Friction is Coulomb's on the
-   *accumulated* impulse (within mu_s x the normal one it sticks, else mu_k x it).
-5. Restitution, once at the end: a contact that pushed and approached at the step's
-   start faster than RESTING_FACTOR x |g| dt leaves at restitution x that approach (the
-   approach before the step's own gravity: bouncing that would add energy).
+   pool) in equal parts, the remembered impulses applied, a solve with soft constraints
+   (an implicit spring-damper per contact, soft_step.stiffness_hz and damping_ratio, its
+   push-out no faster than push_out_speed), the positions moved, and a relax pass without
+   the spring's bias. A contact still apart may close no more than its gap (speculative)
+   before the last move. Friction is Coulomb's on the *accumulated* impulse.
+5. Restitution, once at the end: a contact that pushed while touching and approached at
+   the step's start faster than RESTING_FACTOR x |g| dt leaves at restitution x that
+   approach (the approach before the step's own gravity: bouncing that adds energy).
 
 Impulses are equal and opposite (momentum is kept to rounding). Point masses do not spin:
 friction slows relative sliding, nothing rolls.
@@ -37,6 +36,9 @@ import numpy as np
 from ..kernels.step_guard import finite, put_back
 from .colouring import colour_contacts
 from .face_crossing import bound_face_crossings
+from .soft_contact import APPROACH, BIAS_RATE, COLUMNS, FX, FY, FZ, GAP, IMPULSE_SCALE, \
+    MASS, MASS_SCALE, MU_K, MU_S, NORMAL, NX, NY, NZ, restitute_contact, soft_coefficients, \
+    solve_contact
 from .memory import CONTACTS_PER_SPHERE, remembered_slot
 from .detection import detect_contacts, take, END_POSITION, END_VELOCITY, RADIUS, \
     START_POSITION, START_VELOCITY
@@ -53,14 +55,6 @@ _MOST_HZ_PER_SUBSTEP_RATE = 0.25
 _FACE_REACH = 0.5
 # A restitution pass bounces an approach faster than this x |g| dt only (slower ones rest).
 RESTING_FACTOR = 2.0
-# Columns of a contact's row: normal (unit, from the second toward the first), the gap
-# along it at the step's start (m), the effective mass (kg), the approach at the step's
-# start (m/s, negative closing), the accumulated normal impulse (N s), friction impulse
-# (3, N s), the most normal impulse any pass gave, mu_s, mu_k, and its spring's bias rate
-# (1/s), mass scale and impulse scale (soft_coefficients).
-(_NX, _NY, _NZ, _GAP, _MASS, _APPROACH, _NORMAL, _FX, _FY, _FZ, _MOST, _MU_S, _MU_K, _BIAS_RATE,
- _MASS_SCALE, _IMPULSE_SCALE) = range(16)
-_COLUMNS = 16  # two cache lines a contact
 # A contact stiffens with the load it carried last step, up to a quarter of the substep
 # rate, toward the spring that load would press no more than this fraction of the smaller
 # radius: at 120 Hz a column of heavy spheres on a light one sank 21 % of its radius into
@@ -71,98 +65,6 @@ LOADED_OVERLAP = 0.002
 # Identity keys: the pair's identities in the high and low 32 bits (smaller first); a
 # sphere and a face: its identity, then _FACE_KEY + the face (0-5: low x, y, z, high).
 _FACE_KEY = (1 << 32) - 8
-
-
-@numba.njit(error_model='numpy', inline='always')
-def soft_coefficients(stiffness_hz, damping_ratio, h):
-    """(bias rate 1/s, mass scale, impulse scale) of an implicit spring-damper of
-    stiffness_hz and damping_ratio over a substep of h s (Box2D's b2MakeSoft)."""
-    omega = 2.0 * math.pi * stiffness_hz
-    a1 = 2.0 * damping_ratio + h * omega
-    a2 = h * omega * a1
-    a3 = 1.0 / (1.0 + a2)
-    return omega / a1, a2 * a3, a3
-
-
-@numba.njit(error_model='numpy', inline='always')
-def solve_contact(rows, s, a, b, velocity, moved, inverse_mass, push_out_speed, use_bias,
-                  inverse_h):
-    """One contact (rows[s]: its _COLUMNS; a, b: its spheres' rows in velocity (rows, 4) m/s
-    and moved (rows, 4) m since the step's start; inverse_mass (rows,) 1/kg) solved in
-    place: the normal impulse, soft when use_bias and overlapping (its own spring's
-    coefficients), speculative when apart, then Coulomb friction on the
-    accumulated impulse. The per-contact function of the solver (and of a GPU's)."""
-    nx, ny, nz = rows[s, _NX], rows[s, _NY], rows[s, _NZ]
-    rx = velocity[a, 0] - velocity[b, 0]
-    ry = velocity[a, 1] - velocity[b, 1]
-    rz = velocity[a, 2] - velocity[b, 2]
-    speed = rx * nx + ry * ny + rz * nz  # > 0 separating
-    gap = rows[s, _GAP] + ((moved[a, 0] - moved[b, 0]) * nx + (moved[a, 1] - moved[b, 1]) * ny
-                       + (moved[a, 2] - moved[b, 2]) * nz)
-    # Selects, not branches: whether a contact is apart, or slides, is a coin toss from one
-    # contact to the next, and mispredicted branches made the sweeps 1.5x dearer.
-    apart = gap > 0.0
-    soft = use_bias and not apart
-    # Apart: may close its gap in this substep, no more; soft: the spring's push-out.
-    bias = gap * inverse_h if apart else (
-        max(rows[s, _BIAS_RATE] * gap, -push_out_speed) if soft else 0.0)
-    mass_scale = rows[s, _MASS_SCALE] if soft else 1.0
-    impulse_scale = rows[s, _IMPULSE_SCALE] if soft else 0.0
-    accumulated = rows[s, _NORMAL]
-    impulse = -rows[s, _MASS] * mass_scale * (speed + bias) - impulse_scale * accumulated
-    total = max(accumulated + impulse, 0.0)
-    impulse = total - accumulated
-    rows[s, _NORMAL] = total
-    rows[s, _MOST] = max(rows[s, _MOST], impulse)
-    wa, wb = inverse_mass[a], inverse_mass[b]
-    rx += (wa + wb) * impulse * nx
-    ry += (wa + wb) * impulse * ny
-    rz += (wa + wb) * impulse * nz
-    # Friction: the impulse that would stop the sliding, on the accumulated one; beyond
-    # mu_s x the normal impulse it slides (kinetic, along the same line); none at mu_s 0.
-    along = rx * nx + ry * ny + rz * nz
-    held_x, held_y, held_z = rows[s, _FX], rows[s, _FY], rows[s, _FZ]
-    gx = held_x - rows[s, _MASS] * (rx - along * nx)
-    gy = held_y - rows[s, _MASS] * (ry - along * ny)
-    gz = held_z - rows[s, _MASS] * (rz - along * nz)
-    grip = math.sqrt(gx * gx + gy * gy + gz * gz)
-    mu_s = rows[s, _MU_S]
-    scale = rows[s, _MU_K] * total / grip if grip > mu_s * total else 1.0
-    scale = scale if mu_s > 0.0 else 0.0
-    gx, gy, gz = gx * scale, gy * scale, gz * scale
-    rows[s, _FX], rows[s, _FY], rows[s, _FZ] = gx, gy, gz
-    fx = impulse * nx + (gx - held_x)
-    fy = impulse * ny + (gy - held_y)
-    fz = impulse * nz + (gz - held_z)
-    velocity[a, 0] += wa * fx
-    velocity[a, 1] += wa * fy
-    velocity[a, 2] += wa * fz
-    velocity[b, 0] -= wb * fx
-    velocity[b, 1] -= wb * fy
-    velocity[b, 2] -= wb * fz
-
-
-@numba.njit(error_model='numpy', inline='always')
-def restitute_contact(rows, s, a, b, velocity, inverse_mass, threshold, restitution):
-    """The restitution pass for one contact (see solve_contact for the arguments): one that
-    pushed and approached faster than threshold m/s leaves at restitution x that."""
-    approach = rows[s, _APPROACH]
-    if approach > -threshold or rows[s, _MOST] == 0.0:
-        return
-    nx, ny, nz = rows[s, _NX], rows[s, _NY], rows[s, _NZ]
-    speed = ((velocity[a, 0] - velocity[b, 0]) * nx + (velocity[a, 1] - velocity[b, 1]) * ny
-             + (velocity[a, 2] - velocity[b, 2]) * nz)
-    accumulated = rows[s, _NORMAL]
-    total = max(accumulated - rows[s, _MASS] * (speed + restitution * approach), 0.0)
-    impulse = total - accumulated
-    rows[s, _NORMAL] = total
-    wa, wb = inverse_mass[a], inverse_mass[b]
-    velocity[a, 0] += wa * impulse * nx
-    velocity[a, 1] += wa * impulse * ny
-    velocity[a, 2] += wa * impulse * nz
-    velocity[b, 0] -= wb * impulse * nx
-    velocity[b, 1] -= wb * impulse * ny
-    velocity[b, 2] -= wb * impulse * nz
 
 
 @numba.njit(error_model='numpy')
@@ -210,8 +112,8 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
         ends[c, 0], ends[c, 1] = faces_of[f, 0], ground
         keys[c] = (identity[sphere[faces_of[f, 0]]] << 32) | (_FACE_KEY + faces_of[f, 1])
         homes[c] = sphere[faces_of[f, 0]]
-    rows, used_real = take(reals, used_real, _COLUMNS * total)
-    rows = rows.reshape((total, _COLUMNS))
+    rows, used_real = take(reals, used_real, COLUMNS * total)
+    rows = rows.reshape((total, COLUMNS))
     slot, _ = colour_contacts(ends, ground, wholes, used_whole)
     _fill_rows(rows, slot, ends, contacts, faces_of, sphere, ground, old_position,
                old_velocity, radius, mass, faces, contact, has_friction, settings, dt)
@@ -288,7 +190,7 @@ def _face_contacts(sphere, old_position, position, radius, faces, has_faces, fou
 @numba.njit(error_model='numpy')
 def _fill_rows(rows, slot, ends, contacts, faces_of, sphere, ground, old_position,
                old_velocity, radius, mass, faces, contact, has_friction, settings, dt):
-    """Each contact's row (the _COLUMNS) at its slot, from the step's start; impulses
+    """Each contact's row (the COLUMNS) at its slot, from the step's start; impulses
     zero and the scene's spring (_warm_start puts last step's impulses in)."""
     found = contacts.pairs.shape[1]
     h = dt / settings[0]
@@ -304,29 +206,29 @@ def _fill_rows(rows, slot, ends, contacts, faces_of, sphere, ground, old_positio
             j = sphere[ends[c, 1]]
             nx, ny, nz = (contacts.normal[0, c], contacts.normal[1, c],
                           contacts.normal[2, c])
-            rows[s, _GAP] = ((old_position[0, i] - old_position[0, j]) * nx
+            rows[s, GAP] = ((old_position[0, i] - old_position[0, j]) * nx
                              + (old_position[1, i] - old_position[1, j]) * ny
                              + (old_position[2, i] - old_position[2, j]) * nz
                              - radius[i] - radius[j])
-            rows[s, _MASS] = 1.0 / (1.0 / mass[i] + 1.0 / mass[j])
-            rows[s, _APPROACH] = ((old_velocity[0, i] - old_velocity[0, j]) * nx
+            rows[s, MASS] = 1.0 / (1.0 / mass[i] + 1.0 / mass[j])
+            rows[s, APPROACH] = ((old_velocity[0, i] - old_velocity[0, j]) * nx
                                   + (old_velocity[1, i] - old_velocity[1, j]) * ny
                                   + (old_velocity[2, i] - old_velocity[2, j]) * nz)
-            rows[s, _MU_S], rows[s, _MU_K] = mu_s, mu_k
+            rows[s, MU_S], rows[s, MU_K] = mu_s, mu_k
         else:
             face = faces_of[c - found, 1]
             axis = face % 3
             inward = 1.0 if face < 3 else -1.0  # the face's normal, into the pool
             nx, ny, nz = (inward if axis == 0 else 0.0, inward if axis == 1 else 0.0,
                           inward if axis == 2 else 0.0)
-            rows[s, _GAP] = (old_position[axis, i] - radius[i] - faces[axis] if face < 3
+            rows[s, GAP] = (old_position[axis, i] - radius[i] - faces[axis] if face < 3
                              else faces[face] - radius[i] - old_position[axis, i])
-            rows[s, _MASS] = mass[i]
-            rows[s, _APPROACH] = inward * old_velocity[axis, i]
+            rows[s, MASS] = mass[i]
+            rows[s, APPROACH] = inward * old_velocity[axis, i]
             # Rolling resistance on a face, as the per-sphere face rule has it.
-            rows[s, _MU_S], rows[s, _MU_K] = mu_s, mu_k + rolling
-        rows[s, _NX], rows[s, _NY], rows[s, _NZ] = nx, ny, nz
-        rows[s, _BIAS_RATE], rows[s, _MASS_SCALE], rows[s, _IMPULSE_SCALE] = soft
+            rows[s, MU_S], rows[s, MU_K] = mu_s, mu_k + rolling
+        rows[s, NX], rows[s, NY], rows[s, NZ] = nx, ny, nz
+        rows[s, BIAS_RATE], rows[s, MASS_SCALE], rows[s, IMPULSE_SCALE] = soft
 
 
 @numba.njit(error_model='numpy')
@@ -345,22 +247,22 @@ def _warm_start(rows, slot, keys, homes, memory_keys, memory_forces, memory_held
             continue
         held = memory_forces[home, j]
         s = slot[c]
-        nx, ny, nz = rows[s, _NX], rows[s, _NY], rows[s, _NZ]
+        nx, ny, nz = rows[s, NX], rows[s, NY], rows[s, NZ]
         fx, fy, fz = held[1] * h, held[2] * h, held[3] * h
         along = fx * nx + fy * ny + fz * nz
-        rows[s, _NORMAL] = held[0] * h
-        rows[s, _FX], rows[s, _FY], rows[s, _FZ] = (fx - along * nx, fy - along * ny,
+        rows[s, NORMAL] = held[0] * h
+        rows[s, FX], rows[s, FY], rows[s, FZ] = (fx - along * nx, fy - along * ny,
                                                     fz - along * nz)
         a, b = ends[c, 0], ends[c, 1]
         smaller = radius[sphere[a]] if b == ground else min(radius[sphere[a]],
                                                             radius[sphere[b]])
         # The frequency whose spring the load presses LOADED_OVERLAP x smaller.
         needed = math.sqrt(max(held[0], 0.0) / (
-            rows[s, _MASS] * LOADED_OVERLAP * smaller)) / (2.0 * math.pi)
+            rows[s, MASS] * LOADED_OVERLAP * smaller)) / (2.0 * math.pi)
         most = _MOST_HZ_PER_SUBSTEP_RATE / h
         if needed > min(settings[1], most):
             soft = soft_coefficients(min(needed, most), settings[2], h)
-            rows[s, _BIAS_RATE], rows[s, _MASS_SCALE], rows[s, _IMPULSE_SCALE] = soft
+            rows[s, BIAS_RATE], rows[s, MASS_SCALE], rows[s, IMPULSE_SCALE] = soft
 
 
 @numba.njit(error_model='numpy')
@@ -377,10 +279,10 @@ def _remember(rows, slot, keys, homes, memory_keys, memory_forces, memory_held, 
             continue
         s = slot[c]
         memory_keys[home, k] = keys[c]
-        memory_forces[home, k, 0] = rows[s, _NORMAL] * per_second
-        memory_forces[home, k, 1] = rows[s, _FX] * per_second
-        memory_forces[home, k, 2] = rows[s, _FY] * per_second
-        memory_forces[home, k, 3] = rows[s, _FZ] * per_second
+        memory_forces[home, k, 0] = rows[s, NORMAL] * per_second
+        memory_forces[home, k, 1] = rows[s, FX] * per_second
+        memory_forces[home, k, 2] = rows[s, FY] * per_second
+        memory_forces[home, k, 3] = rows[s, FZ] * per_second
         memory_held[home] = k + 1
 
 
@@ -416,24 +318,27 @@ def _substeps(rows, solve_order, velocity, moved, change, inverse_mass, settings
     h = dt / substeps
     push_out_speed, inverse_h = settings[3], 1.0 / h
     members, total = velocity.shape[0] - 1, rows.shape[0]
-    for _ in range(substeps):
+    for substep in range(substeps):
         for k in range(members):
             for axis in range(3):
                 velocity[k, axis] += change[k, axis]
         for s in range(total):  # the impulses carried in
             a, b = solve_order[s, 0], solve_order[s, 1]
-            normal = rows[s, _NORMAL]
+            normal = rows[s, NORMAL]
             wa, wb = inverse_mass[a], inverse_mass[b]
             for axis in range(3):
-                impulse = normal * rows[s, _NX + axis] + rows[s, _FX + axis]
+                impulse = normal * rows[s, NX + axis] + rows[s, FX + axis]
                 velocity[a, axis] += wa * impulse
                 velocity[b, axis] -= wb * impulse
         for s in range(total):
             solve_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity, moved,
-                          inverse_mass, push_out_speed, True, inverse_h)
+                          inverse_mass, push_out_speed, True, inverse_h, True)
         for k in range(members):
             for axis in range(3):
                 moved[k, axis] += h * velocity[k, axis]
+        # After the last move a contact still apart is the next step's: held here, a pair
+        # about to meet was slowed at a distance, inelastically.
+        last = substep == substeps - 1
         for s in range(total):
             solve_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity, moved,
-                          inverse_mass, push_out_speed, False, inverse_h)
+                          inverse_mass, push_out_speed, False, inverse_h, not last)
