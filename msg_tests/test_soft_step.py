@@ -32,6 +32,9 @@ def energy(sim):
 # A free pair.
 
 @settings(deadline=None)
+# Held apart by the last relax pass, this pair was slowed to 3 m/s before it touched, and
+# then parted at 3: a contact still apart after the last move is the next step's now.
+@example(mass_a=1.0, mass_b=1.0, restitution=1.0, speed=19.0, offset=0.0)
 @given(log_uniform(1e-3, 1e3), log_uniform(1e-3, 1e3), st.floats(0.0, 1.0),
        st.floats(0.6, 20.0), st.floats(-0.95, 0.95))
 def test_a_free_pair_keeps_its_momentum_exactly_and_gains_no_energy(
