@@ -53,6 +53,32 @@ def dropped_scene(count, collisions=True, solver='sequential_impulses', rate_hz=
                   'spheres.radius': radius.tolist(), 'spheres.mass': mass.tolist()})
 
 
+def scattered_spheres(count):
+    """(position (count, 3) m, radius (count,) m, mass (count,) kg): benchmarks/node_rate's
+    spheres, anywhere in the cube from -3.5 to 3.5 m (air and water; some overlap at the
+    start), radii 0.02 to 0.1 m, densities 100 to 3000 kg/m^3, in no spatial order; rounded
+    as its params file writes them (mass to 1 mg, radius to 0.1 mm, position to 1 mm)."""
+    rng = np.random.default_rng(count)
+    position, radius, mass = np.empty((count, 3)), np.empty(count), np.empty(count)
+    for i in range(count):  # drawn sphere by sphere: the params files of earlier runs
+        drawn = float(rng.uniform(0.02, 0.1))
+        mass[i] = round(float(rng.uniform(100.0, 3000.0) * 4.0 / 3.0 * np.pi * drawn**3), 6)
+        radius[i] = round(drawn, 4)
+        position[i] = np.round(rng.uniform(-3.5, 3.5, 3), 3)
+    return position, radius, mass
+
+
+def scattered_scene(count, collisions=True, solver=None):
+    """The node's scene in benchmarks/node_rate (scattered_spheres, the node's defaults
+    but for the effects: the default ones and `collisions`, resolved by solver)."""
+    position, radius, mass = scattered_spheres(count)
+    keys = {'contact_solver': solver} if solver else {}
+    return Scene({'sphere_names': [f's{i}' for i in range(count)],
+                  'effects': list(DEFAULT_EFFECTS) + (['collisions'] if collisions else []),
+                  'spheres.position': position.ravel().tolist(),
+                  'spheres.radius': radius.tolist(), 'spheres.mass': mass.tolist(), **keys})
+
+
 def timed(function, budget_s=0.6, repeats=7):
     """Median seconds per call: each repeat runs enough calls to last budget_s/repeats."""
     start = time.perf_counter()

@@ -3,13 +3,16 @@ and narrow phase, the warm start's sort, and the solve; and how a dropped pile l
 rests under each.
 
     .venv/bin/python -m benchmarks.contact_stages [--spheres 10000] [--seconds 10]
-        [--least-density 300] [--solvers soft_step] [--substeps 8]
+        [--least-density 300] [--solvers soft_step] [--substeps 8] [--scattered]
         [--out results/collisions/stages.md]
 
 The scene is benchmarks/collisions.py's (spheres dropped from a lattice into the default
 pool, 200 Hz, one thread), run for `--seconds` with each solver. Its densities start at
 300 kg/m^3: a quarter float, and those a little denser than water are still sinking at 12 s.
-`--least-density 1500` makes every sphere sink and come to rest: a resting pile. Every half
+`--least-density 1500` makes every sphere sink and come to rest: a resting pile.
+`--scattered` takes benchmarks/node_rate.py's scene instead (common.scattered_spheres:
+radii 0.02 to 0.1 m strewn through the pool's air and water in no spatial order, the node's
+defaults). Every half
 second of simulated time it samples the deepest overlap (of the smaller radius), the rms and the
 fastest speed. At three moments (MOMENTS_S: falling through the water, landing on the
 floor and on each other, and the end: the pile), it times, from the same state, turn by
@@ -37,7 +40,7 @@ import time
 import numpy as np
 
 from benchmarks.collisions import deepest_overlap, FRICTION, RATE_HZ, RESTITUTION
-from benchmarks.common import dropped_scene, provenance
+from benchmarks.common import dropped_scene, provenance, scattered_scene
 from pool_sim.physics import Simulation, stepper
 from pool_sim.physics.contacts import soft_step, SOLVERS, workspace
 from pool_sim.physics.contacts.detection import detect_contacts
@@ -48,11 +51,14 @@ MOMENTS_S = {1.5: 'falling', 5.0: 'landing'}  # and the end: 'pile'
 SAMPLE_S = 0.5
 
 
-def scene(count, solver, collisions=True, least_density=300.0, substeps=None):
-    """The dropped-spheres scene; substeps: soft_step's (None: its default)."""
-    dropped = dropped_scene(count, collisions, solver, RATE_HZ, RESTITUTION, FRICTION,
-                            least_density)
-    return dropped if substeps is None else dropped.with_values(
+def scene(count, solver, collisions=True, least_density=300.0, substeps=None,
+          scattered=False):
+    """The dropped-spheres scene (scattered: node_rate's); substeps: soft_step's (None:
+    its default)."""
+    chosen = (scattered_scene(count, collisions, solver) if scattered else
+              dropped_scene(count, collisions, solver, RATE_HZ, RESTITUTION, FRICTION,
+                            least_density))
+    return chosen if substeps is None else chosen.with_values(
         **{'soft_step.substeps': substeps})
 
 
@@ -117,9 +123,9 @@ def time_stages(colliding, smooth, detection_input, lookups):
     return {name: statistics.median(values) for name, values in times.items()}
 
 
-def run(count, seconds, solver, least_density, substeps):
-    colliding = Simulation(scene(count, solver, True, least_density, substeps))
-    smooth = Simulation(scene(count, solver, False, least_density, substeps))
+def run(count, seconds, solver, least_density, substeps, scattered=False):
+    colliding = Simulation(scene(count, solver, True, least_density, substeps, scattered))
+    smooth = Simulation(scene(count, solver, False, least_density, substeps, scattered))
     colliding.prepare()
     smooth.prepare()
     samples, rows = [], []
@@ -201,20 +207,27 @@ def main():
                         help='kg/m^3; from 1000 up every sphere sinks and comes to rest')
     parser.add_argument('--solvers', nargs='+', choices=sorted(SOLVERS), default=list(SOLVERS))
     parser.add_argument('--substeps', type=int, help="soft_step's (default: the scene key's)")
+    parser.add_argument('--scattered', action='store_true',
+                        help="benchmarks/node_rate.py's scene (--least-density is not used)")
     parser.add_argument('--out', default='results/collisions/stages.md')
     arguments = parser.parse_args()
     if arguments.seconds < max(MOMENTS_S) + SAMPLE_S:
         parser.error(f'--seconds: at least {max(MOMENTS_S) + SAMPLE_S:g}')
     stepper.use_threads(1)
     results = {solver: run(arguments.spheres, arguments.seconds, solver,
-                           arguments.least_density, arguments.substeps)
+                           arguments.least_density, arguments.substeps, arguments.scattered)
                for solver in arguments.solvers}
+    densities = ("benchmarks/node_rate.py's scene: radii 0.02 to 0.1 m, densities from 100 to "
+                 "3000 kg/m^3." if arguments.scattered else
+                 f'Densities from {arguments.least_density:g} to 3000 kg/m^3.')
     text = '\n'.join([provenance(
         f'.venv/bin/python -m benchmarks.contact_stages --spheres {arguments.spheres} '
-        f'--seconds {arguments.seconds:g} --least-density {arguments.least_density:g}'
+        f'--seconds {arguments.seconds:g}'
+        + (' --scattered' if arguments.scattered else
+           f' --least-density {arguments.least_density:g}')
         + (f' --solvers {" ".join(arguments.solvers)}' if arguments.solvers != list(SOLVERS)
            else '') + (f' --substeps {arguments.substeps}' if arguments.substeps else '')),
-        f'Densities from {arguments.least_density:g} to 3000 kg/m^3.', '',
+        densities, '',
         *stage_table(arguments.spheres, results, arguments.substeps),
         '', *pile_table(results)]) + '\n'
     out = Path(arguments.out)

@@ -20,10 +20,9 @@ import sys
 import tempfile
 import time
 
-from benchmarks.common import cpu_seconds
+from benchmarks.common import cpu_seconds, scattered_spheres
 from geometry_msgs.msg import PoseArray
 from nav_msgs.msg import Odometry
-import numpy as np
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
@@ -39,7 +38,6 @@ def spheres_params_file(count, path, collisions=False, contact_solver=None,
     """A params file with `count` spheres scattered through the pool's air and water;
     collisions: the default effects and `collisions`, resolved by contact_solver (None:
     the default); per_sphere_topics: the node key."""
-    rng = np.random.default_rng(count)
     lines = ['/**:', '  ros__parameters:',
              f'    sphere_names: [{", ".join(f"s{i}" for i in range(count))}]']
     if collisions:
@@ -49,10 +47,7 @@ def spheres_params_file(count, path, collisions=False, contact_solver=None,
         lines.append(f'    contact_solver: {contact_solver}')
     if not per_sphere_topics:
         lines.append('    per_sphere_topics: false')
-    for i in range(count):
-        radius = float(rng.uniform(0.02, 0.1))
-        mass = float(rng.uniform(100.0, 3000.0) * 4.0 / 3.0 * np.pi * radius**3)
-        x, y, z = (float(v) for v in rng.uniform(-3.5, 3.5, 3))
+    for i, ((x, y, z), radius, mass) in enumerate(zip(*scattered_spheres(count))):
         lines.append(f'    s{i}: {{mass: {mass:.6f}, radius: {radius:.4f}, '
                      f'position: [{x:.3f}, {y:.3f}, {z:.3f}]}}')
     path.write_text('\n'.join(lines) + '\n')
