@@ -122,7 +122,9 @@ def main():
     elapsed = window[-1][0] - window[0][0]
     finite = all(math.isfinite(v) for _, m in window for p in m.poses
                  for v in (p.position.x, p.position.y, p.position.z))
-    refused = log.count('refused a force that is not finite')
+    # inputs.py's throttled warning, one a sphere per THROTTLE_S at most
+    refused = sum('/wrench: refused:' in line and 'must be finite' in line
+                  for line in log.splitlines())
     print(f'{len(SPHERES)} publishers x {RATE_HZ:g} Hz for {args.seconds:g} s, one message in '
           'ten NaN, node at real_time_factor 1')
     own = node_own_figures(log, args.seconds)
