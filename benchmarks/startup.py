@@ -18,6 +18,7 @@ import argparse
 import os
 from pathlib import Path
 import re
+import shlex
 import signal
 import statistics
 import subprocess
@@ -25,6 +26,7 @@ import sys
 import tempfile
 import time
 
+from benchmarks.common import provenance
 from geometry_msgs.msg import PoseArray
 import numpy as np
 import rclpy
@@ -162,7 +164,11 @@ def main():
     parser.add_argument('--repeats', type=int, default=3,
                         help='node processes per row (medians; discovery varies by seconds)')
     args = parser.parse_args()
-    lines = [__doc__.split('\n\n', 2)[2].strip(), '']
+    command = ' '.join(['.venv/bin/python -m benchmarks.startup', *(
+        f'--{key.replace("_", "-")} {shlex.quote(str(value))}'
+        for key, value in vars(args).items()
+        if value != parser.get_default(key))])
+    lines = [provenance(command), '', __doc__.split('\n\n', 2)[2].strip(), '']
     with tempfile.TemporaryDirectory() as folder:
         for flag, counts in ((False, args.spheres), (True, args.per_sphere)):
             if not counts:
