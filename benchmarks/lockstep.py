@@ -38,6 +38,7 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
 from lockstep_nodes import (LOCKSTEP_PARAMS, record_across_processes,  # noqa: E402
                             record_in_process)
+from benchmarks.common import provenance  # noqa: E402
 from pool_sim.ros.depth_keeper import DepthKeeper  # noqa: E402
 from pool_sim.testing import PoolSim  # noqa: E402
 
@@ -107,6 +108,8 @@ def main():
     commit = subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], cwd=REPO,
                             capture_output=True, text=True).stdout.strip()
     lines = [f'# Lockstep: the depth_keeper loop, 20 simulated s (commit {commit})', '',
+             provenance(' '.join(['.venv/bin/python -m benchmarks.lockstep', *sys.argv[1:]])),
+             '',
              'Default pool (3 spheres, 200 Hz physics, 30 Hz publishing), depth_keeper '
              'holding ice at 1 m depth (target z = -1.0 m); medians (ranges) of the runs.', '',
              '| loop | runs | wall s | × real time | ice z at 20 s | distinct results |',
