@@ -106,12 +106,12 @@ def test_no_soft_contact_adds_energy(integrator, radius, ratio, mass_low, mass_h
 
 @pytest.mark.parametrize('integrator', ['semi_implicit_euler', 'linearly_implicit_euler'])
 def test_a_heavy_sphere_on_a_light_one_gains_a_bounded_energy(integrator):
-    # The soft step's known limit (found by test_no_soft_contact_adds_energy): a sphere ten
-    # times heavier thrown at 1 m/s, restitution 0, onto one resting on the floor. The
-    # impact takes 21.9 J; the next step gives 4.3 J back, and the heavy sphere leaves at
-    # 0.41 m/s: one relax sweep a substep does not stop a heavy sphere on a light one
-    # pushed out of the floor (Gauss-Seidel passes momentum slowly against a mass ratio).
-    # Bounded here so that it cannot grow unseen; sequential_impulses has no such gain.
+    # Found by test_no_soft_contact_adds_energy: a sphere ten times heavier thrown at 1 m/s,
+    # restitution 0, onto one resting on the floor. Without the support sweep the impact
+    # took 21.9 J and the next step gave 4.3 J back, the heavy sphere leaving at 0.41 m/s:
+    # one relax sweep a substep did not stop a heavy sphere on a light one pushed out of
+    # the floor (Gauss-Seidel passes momentum slowly against a mass ratio). Measured with
+    # it: 20.4 J taken, at most 0.054 J back in a step, the heavy sphere at rest.
     radius = 0.1
     low_z = -4.0 + radius
     sim = Simulation(soft_scene(
@@ -126,7 +126,7 @@ def test_a_heavy_sphere_on_a_light_one_gains_a_bounded_energy(integrator):
         gains.append(energy(sim) - before)
     impact = -gains[0]
     assert impact > 20.0
-    assert max(gains) < 0.25 * impact  # measured 0.20 of it
+    assert max(gains) < 0.01 * impact  # measured 0.0027 of it (0.20 without the sweep)
     assert energy(sim) < start - 0.75 * impact  # over the bounce, energy goes
 
 
@@ -145,6 +145,52 @@ def test_spheres_dropped_through_the_surface_in_a_crowd_do_not_sink_into_each_ot
             deepest = max(deepest, (depth / np.minimum(radius[pairs[0]],
                                                        radius[pairs[1]])).max())
     assert deepest < 0.2
+
+
+@pytest.mark.parametrize('densities, speed', [([340, 430] + [2500] * 8, 1.7),
+                                              ([340] + [3000] * 9, 2.5)])
+def test_a_column_landing_on_floaters_does_not_crush_them_into_each_other(densities, speed):
+    # A column of ten 3 cm spheres falling in water onto the floor, the lowest ones lighter
+    # than water (kg/m^3), under heavy ones: as the 10 000-sphere landing's deepest pair.
+    # Without the support sweep the column drove them 0.22 (0.29) of a radius into each
+    # other; measured 0.058 (0.069) with it.
+    radius = 0.03
+    jitter = np.random.default_rng(0).uniform(-0.004, 0.004, (len(densities), 2))
+    sim = Simulation(spheres_scene(
+        [(x, y, -4.0 + radius + 0.005 + k * (2 * radius + 0.001))
+         for k, (x, y) in enumerate(jitter)], [(0.0, 0.0, -speed)] * len(densities),
+        radius=radius, mass=[d * 4 / 3 * math.pi * radius**3 for d in densities],
+        effects=['gravity', 'buoyancy', 'drag', 'contact', 'friction', 'collisions'],
+        contact_solver='soft_step', contact__restitution=0.5, water__surface_z=4.0))
+    deepest = 0.0
+    for _ in range(120):
+        sim.step()
+        apart = np.linalg.norm(np.diff(sim.spheres.position, axis=1), axis=0)
+        deepest = max(deepest, float((2.0 * radius - apart).max() / radius))
+    assert deepest < 0.1
+
+
+@pytest.mark.xfail(strict=True, reason="soft_step's known limit: a sphere dropped on one "
+                   'resting on the floor rebounds far below restitution^2 x its drop')
+@pytest.mark.parametrize('restitution, upper_kg', [(1.0, 1.0), (0.5, 10.0)])
+def test_a_sphere_dropped_on_one_resting_on_the_floor_rebounds(restitution, upper_kg):
+    # 0.2 m onto a 1 kg sphere on the floor: off the floor itself it would rebound
+    # restitution^2 x 0.2 m. Measured: 0.017 m (restitution 1, equal masses; 0.021 before
+    # the support sweep) and 0.009 m (0.5, ten times heavier; 0.044 before: the sweep stops
+    # the heavy one against the one the floor holds up, and the restitution pass then
+    # shares the bounce by the pair's masses). Strict: mended, it fails until the mark goes.
+    radius = 0.05
+    low_z = -4.0 + radius
+    sim = Simulation(soft_scene([(0, 0, low_z), (0, 0, low_z + 2 * radius + 0.2)],
+                                radius=radius, mass=[1.0, upper_kg],
+                                effects=['gravity', 'contact', 'collisions'],
+                                contact__restitution=restitution))
+    heights = []
+    for _ in range(200):
+        sim.step()
+        heights.append(sim.spheres.position[2, 1] - (low_z + 2 * radius))
+    landed = next(i for i, height in enumerate(heights) if height < 0.01)
+    assert max(heights[landed:]) > 0.8 * restitution**2 * 0.2
 
 
 def test_a_dropped_pile_of_spheres_denser_than_water_comes_to_rest():

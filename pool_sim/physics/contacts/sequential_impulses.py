@@ -31,6 +31,7 @@ import numpy as np
 from ..kernels.faces import face_bounce, on_a_face, shift, velocity_against_faces
 from ..kernels.friction import coulomb
 from ..kernels.step_guard import finite, put_back
+from .layers import bottom_up_order
 from .detection import detect_contacts, take, END_POSITION, END_VELOCITY, RADIUS, \
     START_POSITION
 
@@ -373,20 +374,8 @@ def _settle_on_floor(ends, facts, p, start, v, r, rebounded, faces, static_frict
         lowest = min(lowest, p[k, 2])
         highest = max(highest, p[k, 2])
         smallest = min(smallest, r[k])
-    layers = int(min((highest - lowest) / smallest, 4.0 * found)) + 1
-    layer_start, used_whole = take(wholes, used_whole, layers + 1)
-    layer_start[:] = 0
-    layer, used_whole = take(wholes, used_whole, found)
-    for c in range(found):
-        height = min(p[ends[c, 0], 2], p[ends[c, 1], 2])
-        layer[c] = min(int((height - lowest) / smallest), layers - 1)
-        layer_start[layer[c] + 1] += 1
-    for k in range(layers):
-        layer_start[k + 1] += layer_start[k]
-    order, used_whole = take(wholes, used_whole, found)
-    for c in range(found):
-        order[layer_start[layer[c]]] = c
-        layer_start[layer[c]] += 1
+    order, used_whole = bottom_up_order(ends, p[:, 2], lowest, highest, smallest, wholes,
+                                        used_whole)
     supported = np.empty(members, dtype=np.bool_)
     lifting = np.empty(members, dtype=np.bool_)
     for k in range(members):

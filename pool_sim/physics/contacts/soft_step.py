@@ -18,8 +18,9 @@ step:
    buoyancy, drag, ...; face_crossing.py's bound where its path crossed a face of the
    pool) in equal parts, the remembered impulses applied, a solve with soft constraints
    (an implicit spring-damper per contact, soft_step.stiffness_hz and damping_ratio, its
-   push-out no faster than push_out_speed), the positions moved, and a relax pass without
-   the spring's bias. A contact still apart may close no more than its gap (speculative)
+   push-out no faster than push_out_speed), a support sweep bottom up (_support_sweep: a
+   sphere the floor holds up stops a landing sphere above it), the positions moved, and a
+   relax pass without the spring's bias. A contact still apart may close no more than its gap (speculative)
    before the last move. Friction is Coulomb's on the *accumulated* impulse.
 5. Restitution, once at the end: a contact that pushed while touching and approached at
    the step's start faster than RESTING_FACTOR x |g| dt leaves at restitution x that
@@ -35,6 +36,7 @@ import numpy as np
 
 from ..kernels.step_guard import finite, put_back
 from .colouring import colour_contacts
+from .layers import bottom_up_order
 from .face_crossing import bound_face_crossings
 from .soft_contact import APPROACH, BIAS_RATE, COLUMNS, FX, FY, FZ, GAP, IMPULSE_SCALE, \
     MASS, MASS_SCALE, MU_K, MU_S, NORMAL, NX, NY, NZ, restitute_contact, soft_coefficients, \
@@ -55,6 +57,11 @@ _MOST_HZ_PER_SUBSTEP_RATE = 0.25
 _FACE_REACH = 0.5
 # A restitution pass bounces an approach faster than this x |g| dt only (slower ones rest).
 RESTING_FACTOR = 2.0
+# A contact whose normal is at least this steep (its z part) bears weight: one sphere
+# holds the other up (sequential_impulses' _BEARING).
+_BEARING = 0.3
+# Touching, for _support_sweep: apart by no more than this, m.
+_HOLDING_GAP = 1e-9
 # A contact stiffens with the load it carried last step, up to a quarter of the substep
 # rate, toward the spring that load would press no more than this fraction of the smaller
 # radius: at 120 Hz a column of heavy spheres on a light one sank 21 % of its radius into
@@ -126,8 +133,12 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     solve_order = np.empty_like(ends)  # each slot's two rows
     for c in range(total):
         solve_order[slot[c], 0], solve_order[slot[c], 1] = ends[c, 0], ends[c, 1]
-    _substeps(rows, solve_order, velocity_rows, moved, change, inverse_mass, settings, dt)
     threshold = RESTING_FACTOR * resting_speed
+    floor_slot, bottom_up = _support_order(ends[:pairs.shape[1]], faces_of, slot, sphere,
+                                           old_position, radius, pairs.shape[1])
+    supported = np.zeros(members, dtype=np.bool_)  # _support_sweep's scratch
+    _substeps(rows, solve_order, velocity_rows, moved, change, inverse_mass, settings, dt,
+              floor_slot, bottom_up, threshold, supported)
     for s in range(total):
         restitute_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity_rows,
                           inverse_mass, threshold, contact[0])
@@ -312,8 +323,10 @@ def _body_rows(sphere, old_velocity, velocity, mass, settings, reals, used_real)
 
 
 @numba.njit(error_model='numpy')
-def _substeps(rows, solve_order, velocity, moved, change, inverse_mass, settings, dt):
-    """The substeps (see the module's docstring, 4) on the rows of resolve_collisions."""
+def _substeps(rows, solve_order, velocity, moved, change, inverse_mass, settings, dt,
+              floor_slot, bottom_up, threshold, supported):
+    """The substeps (see the module's docstring, 4) on the rows of resolve_collisions;
+    floor_slot, bottom_up, threshold m/s, supported: _support_sweep's."""
     substeps = int(settings[0])
     h = dt / substeps
     push_out_speed, inverse_h = settings[3], 1.0 / h
@@ -333,6 +346,8 @@ def _substeps(rows, solve_order, velocity, moved, change, inverse_mass, settings
         for s in range(total):
             solve_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity, moved,
                           inverse_mass, push_out_speed, True, inverse_h, True)
+        _support_sweep(rows, solve_order, velocity, moved, floor_slot, bottom_up, inverse_h,
+                       threshold, supported)
         for k in range(members):
             for axis in range(3):
                 moved[k, axis] += h * velocity[k, axis]
@@ -342,3 +357,80 @@ def _substeps(rows, solve_order, velocity, moved, change, inverse_mass, settings
         for s in range(total):
             solve_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity, moved,
                           inverse_mass, push_out_speed, False, inverse_h, not last)
+
+
+@numba.njit(error_model='numpy')
+def _support_order(pair_ends, faces_of, slot, sphere, old_position, radius, found):
+    """(floor_slot (members,) int64: the slot of each member's floor contact, or -1;
+    bottom_up (pairs,) int64: the pairs' slots, by the height of their lower sphere at the
+    step's start, lowest first) for _support_sweep."""
+    members = sphere.size
+    floor_slot = np.full(members, -1, dtype=np.int64)
+    for f in range(slot.size - found):
+        if faces_of[f, 1] == 2:  # the floor: low z
+            floor_slot[faces_of[f, 0]] = slot[found + f]
+    z = np.empty(members)
+    lowest, highest, smallest = math.inf, -math.inf, math.inf
+    for k in range(members):
+        z[k] = old_position[2, sphere[k]]
+        lowest, highest = min(lowest, z[k]), max(highest, z[k])
+        smallest = min(smallest, radius[sphere[k]])
+    order, _ = bottom_up_order(pair_ends, z, lowest, highest, smallest,
+                               np.empty(0, dtype=np.int64), 0)
+    for k in range(found):
+        order[k] = slot[order[k]]
+    return floor_slot, order
+
+
+@numba.njit(error_model='numpy')
+def _support_sweep(rows, solve_order, velocity, moved, floor_slot, bottom_up, inverse_h,
+                   threshold, supported):
+    """Shock propagation (Guendelman et al. 2003), after each substep's solve: bottom up,
+    a sphere touching the floor, or touching a sphere so held up through a contact that
+    bears weight, is as immovable as the floor for the sphere above it, whose approach
+    beyond its gap / h stops (the momentum goes to the floor). Only an approach faster
+    than threshold m/s: a landing's, not a resting pile's (swept so every substep, a pile
+    of 10 000 never came to rest).
+
+    Gauss-Seidel passes a blow down a chain one contact a pass, and a light sphere between
+    the floor and a heavy column is driven back into the one below by the column's
+    contacts swept after theirs: landing, two such spheres closed by 3 mm a step for ten
+    steps, 69 % of a radius deep. supported (members,) bool: scratch, the spheres held
+    up."""
+    for k in range(floor_slot.size):
+        s = floor_slot[k]
+        # Lifting off (rising faster than threshold): holds nothing up.
+        supported[k] = (s >= 0 and rows[s, GAP] + moved[k, 2] <= _HOLDING_GAP
+                        and velocity[k, 2] <= threshold)
+    for q in range(bottom_up.size):
+        s = bottom_up[q]
+        upper, lower, sign = _held_up(rows, s, solve_order, supported, floor_slot.size)
+        if upper < 0:
+            continue
+        nx, ny, nz = sign * rows[s, NX], sign * rows[s, NY], sign * rows[s, NZ]
+        gap = rows[s, GAP] + ((moved[upper, 0] - moved[lower, 0]) * nx
+                              + (moved[upper, 1] - moved[lower, 1]) * ny
+                              + (moved[upper, 2] - moved[lower, 2]) * nz)
+        supported[upper] = supported[upper] or gap <= _HOLDING_GAP
+        approach = -((velocity[upper, 0] - velocity[lower, 0]) * nx
+                     + (velocity[upper, 1] - velocity[lower, 1]) * ny
+                     + (velocity[upper, 2] - velocity[lower, 2]) * nz) - max(gap, 0.0) * inverse_h
+        if approach > threshold:
+            velocity[upper, 0] += approach * nx
+            velocity[upper, 1] += approach * ny
+            velocity[upper, 2] += approach * nz
+
+
+@numba.njit(error_model='numpy', inline='always')
+def _held_up(rows, s, solve_order, supported, ground):
+    """(upper, lower, sign) of contact s when it is a pair whose normal bears weight and
+    whose lower sphere is supported (sign: +1 when the upper is its first sphere, the
+    normal's sense from lower to upper), else (-1, -1, 0.0). ground: the faces' row."""
+    a, b = solve_order[s, 0], solve_order[s, 1]
+    sign = 1.0 if rows[s, NZ] > 0.0 else -1.0
+    if b == ground or sign * rows[s, NZ] < _BEARING:
+        return -1, -1, 0.0  # a face, or side by side: neither holds the other up
+    upper, lower = (a, b) if sign > 0.0 else (b, a)
+    if not supported[lower]:
+        return -1, -1, 0.0
+    return upper, lower, sign

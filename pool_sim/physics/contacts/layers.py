@@ -1,0 +1,30 @@
+"""Contacts ordered bottom up, for the sweeps that let a pile rest on the floor (shock
+propagation, Guendelman et al. 2003): sequential_impulses' last sweep and soft_step's
+support sweep each visit a contact after the contacts below it."""
+import numba
+
+from .detection import take
+
+
+@numba.njit(error_model='numpy')
+def bottom_up_order(ends, z, lowest, highest, smallest, wholes, used_whole):
+    """(order (m,) int64: the contacts (ends (m, 2), rows of z) by the height z m of their
+    lower sphere, lowest first; used wholes): a counting sort on layers `smallest` m thick
+    from `lowest` up to `highest` (contacts in one layer keep their order; at most 4 m
+    layers)."""
+    found = ends.shape[0]
+    layers = int(min((highest - lowest) / smallest, 4.0 * found)) + 1
+    layer_start, used_whole = take(wholes, used_whole, layers + 1)
+    layer_start[:] = 0
+    layer, used_whole = take(wholes, used_whole, found)
+    for c in range(found):
+        height = min(z[ends[c, 0]], z[ends[c, 1]])
+        layer[c] = min(int((height - lowest) / smallest), layers - 1)
+        layer_start[layer[c] + 1] += 1
+    for k in range(layers):
+        layer_start[k + 1] += layer_start[k]
+    order, used_whole = take(wholes, used_whole, found)
+    for c in range(found):
+        order[layer_start[layer[c]]] = c
+        layer_start[layer[c]] += 1
+    return order, used_whole
