@@ -20,8 +20,8 @@ step:
    (an implicit spring-damper per contact, soft_step.stiffness_hz and damping_ratio, its
    push-out no faster than push_out_speed), a support sweep bottom up (_support_sweep: a
    sphere the floor holds up stops a landing sphere above it), the positions moved, and a
-   relax pass without the spring's bias. A contact still apart may close no more than its gap (speculative)
-   before the last move. Friction is Coulomb's on the *accumulated* impulse.
+   relax pass without the spring's bias. A contact still apart may close no more than
+   its gap (speculative) before the last move. Friction is Coulomb's on the *accumulated* impulse.
 5. Restitution, once at the end: a contact that pushed while touching and approached at
    the step's start faster than RESTING_FACTOR x |g| dt leaves at restitution x that
    approach (the approach before the step's own gravity: bouncing that adds energy).
@@ -134,11 +134,11 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     for c in range(total):
         solve_order[slot[c], 0], solve_order[slot[c], 1] = ends[c, 0], ends[c, 1]
     threshold = RESTING_FACTOR * resting_speed
-    floor_slot, bottom_up = _support_order(ends[:pairs.shape[1]], faces_of, slot, sphere,
-                                           old_position, radius, pairs.shape[1])
+    support = _support_order(rows, ends[:pairs.shape[1]], faces_of, slot, sphere,
+                             old_position, radius)
     supported = np.zeros(members, dtype=np.bool_)  # _support_sweep's scratch
     _substeps(rows, solve_order, velocity_rows, moved, change, inverse_mass, settings, dt,
-              floor_slot, bottom_up, threshold, supported)
+              support, threshold, supported)
     for s in range(total):
         restitute_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity_rows,
                           inverse_mass, threshold, contact[0])
@@ -324,9 +324,9 @@ def _body_rows(sphere, old_velocity, velocity, mass, settings, reals, used_real)
 
 @numba.njit(error_model='numpy')
 def _substeps(rows, solve_order, velocity, moved, change, inverse_mass, settings, dt,
-              floor_slot, bottom_up, threshold, supported):
+              support, threshold, supported):
     """The substeps (see the module's docstring, 4) on the rows of resolve_collisions;
-    floor_slot, bottom_up, threshold m/s, supported: _support_sweep's."""
+    support (_support_order's), threshold m/s, supported: _support_sweep's."""
     substeps = int(settings[0])
     h = dt / substeps
     push_out_speed, inverse_h = settings[3], 1.0 / h
@@ -346,8 +346,7 @@ def _substeps(rows, solve_order, velocity, moved, change, inverse_mass, settings
         for s in range(total):
             solve_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity, moved,
                           inverse_mass, push_out_speed, True, inverse_h, True)
-        _support_sweep(rows, solve_order, velocity, moved, floor_slot, bottom_up, inverse_h,
-                       threshold, supported)
+        _support_sweep(*support, velocity, moved, inverse_h, threshold, supported)
         for k in range(members):
             for axis in range(3):
                 moved[k, axis] += h * velocity[k, axis]
@@ -360,15 +359,24 @@ def _substeps(rows, solve_order, velocity, moved, change, inverse_mass, settings
 
 
 @numba.njit(error_model='numpy')
-def _support_order(pair_ends, faces_of, slot, sphere, old_position, radius, found):
-    """(floor_slot (members,) int64: the slot of each member's floor contact, or -1;
-    bottom_up (pairs,) int64: the pairs' slots, by the height of their lower sphere at the
-    step's start, lowest first) for _support_sweep."""
-    members = sphere.size
-    floor_slot = np.full(members, -1, dtype=np.int64)
+def _support_order(rows, pair_ends, faces_of, slot, sphere, old_position, radius):
+    """What _support_sweep reads, in the order it reads it: (ends (b, 2) int64, the upper
+    and lower sphere of each pair whose normal bears weight, bottom up (by the lower
+    sphere's height at the step's start); facts (b, 4): its normal from lower to upper and
+    its gap at the step's start, m; floor_member (f,) int64 and floor_gap (f,) m: the
+    spheres with a floor contact and its gap at the step's start)."""
+    found, members = pair_ends.shape[0], sphere.size
+    floors = 0
     for f in range(slot.size - found):
-        if faces_of[f, 1] == 2:  # the floor: low z
-            floor_slot[faces_of[f, 0]] = slot[found + f]
+        floors += faces_of[f, 1] == 2  # the floor: low z
+    floor_member = np.empty(floors, dtype=np.int64)
+    floor_gap = np.empty(floors)
+    floors = 0
+    for f in range(slot.size - found):
+        if faces_of[f, 1] == 2:
+            floor_member[floors] = faces_of[f, 0]
+            floor_gap[floors] = rows[slot[found + f], GAP]
+            floors += 1
     z = np.empty(members)
     lowest, highest, smallest = math.inf, -math.inf, math.inf
     for k in range(members):
@@ -377,40 +385,58 @@ def _support_order(pair_ends, faces_of, slot, sphere, old_position, radius, foun
         smallest = min(smallest, radius[sphere[k]])
     order, _ = bottom_up_order(pair_ends, z, lowest, highest, smallest,
                                np.empty(0, dtype=np.int64), 0)
-    for k in range(found):
-        order[k] = slot[order[k]]
-    return floor_slot, order
+    ends = np.empty((found, 2), dtype=np.int64)
+    facts = np.empty((found, 4))
+    bearing = 0
+    for q in range(found):
+        c = order[q]
+        s = slot[c]
+        sign = 1.0 if rows[s, NZ] > 0.0 else -1.0  # the normal's sense from lower to upper
+        if sign * rows[s, NZ] < _BEARING:
+            continue  # side by side: neither holds the other up
+        first, second = pair_ends[c, 0], pair_ends[c, 1]
+        ends[bearing, 0], ends[bearing, 1] = (first, second) if sign > 0.0 else (second, first)
+        facts[bearing, 0] = sign * rows[s, NX]
+        facts[bearing, 1] = sign * rows[s, NY]
+        facts[bearing, 2] = sign * rows[s, NZ]
+        facts[bearing, 3] = rows[s, GAP]
+        bearing += 1
+    return ends[:bearing], facts[:bearing], floor_member, floor_gap
 
 
 @numba.njit(error_model='numpy')
-def _support_sweep(rows, solve_order, velocity, moved, floor_slot, bottom_up, inverse_h,
+def _support_sweep(ends, facts, floor_member, floor_gap, velocity, moved, inverse_h,
                    threshold, supported):
     """Shock propagation (Guendelman et al. 2003), after each substep's solve: bottom up,
     a sphere touching the floor, or touching a sphere so held up through a contact that
     bears weight, is as immovable as the floor for the sphere above it, whose approach
     beyond its gap / h stops (the momentum goes to the floor). Only an approach faster
     than threshold m/s: a landing's, not a resting pile's (swept so every substep, a pile
-    of 10 000 never came to rest).
+    of 10 000 never came to rest). ends, facts, floor_member, floor_gap: _support_order's;
+    supported (members,) bool: scratch.
 
     Gauss-Seidel passes a blow down a chain one contact a pass, and a light sphere between
     the floor and a heavy column is driven back into the one below by the column's
     contacts swept after theirs: landing, two such spheres closed by 3 mm a step for ten
-    steps, 69 % of a radius deep. supported (members,) bool: scratch, the spheres held
-    up."""
-    for k in range(floor_slot.size):
-        s = floor_slot[k]
+    steps, 69 % of a radius deep."""
+    fastest = 0.0
+    for k in range(supported.size):
+        fastest = max(fastest, velocity[k, 0] ** 2 + velocity[k, 1] ** 2 + velocity[k, 2] ** 2)
+    if 4.0 * fastest <= threshold * threshold:
+        return  # no pair can approach faster than threshold: a pile at rest
+    supported[:] = False
+    for f in range(floor_member.size):
+        k = floor_member[f]
         # Lifting off (rising faster than threshold): holds nothing up.
-        supported[k] = (s >= 0 and rows[s, GAP] + moved[k, 2] <= _HOLDING_GAP
-                        and velocity[k, 2] <= threshold)
-    for q in range(bottom_up.size):
-        s = bottom_up[q]
-        upper, lower, sign = _held_up(rows, s, solve_order, supported, floor_slot.size)
-        if upper < 0:
+        supported[k] = floor_gap[f] + moved[k, 2] <= _HOLDING_GAP and velocity[k, 2] <= threshold
+    for q in range(ends.shape[0]):
+        upper, lower = ends[q, 0], ends[q, 1]
+        if not supported[lower]:
             continue
-        nx, ny, nz = sign * rows[s, NX], sign * rows[s, NY], sign * rows[s, NZ]
-        gap = rows[s, GAP] + ((moved[upper, 0] - moved[lower, 0]) * nx
-                              + (moved[upper, 1] - moved[lower, 1]) * ny
-                              + (moved[upper, 2] - moved[lower, 2]) * nz)
+        nx, ny, nz = facts[q, 0], facts[q, 1], facts[q, 2]
+        gap = facts[q, 3] + ((moved[upper, 0] - moved[lower, 0]) * nx
+                             + (moved[upper, 1] - moved[lower, 1]) * ny
+                             + (moved[upper, 2] - moved[lower, 2]) * nz)
         supported[upper] = supported[upper] or gap <= _HOLDING_GAP
         approach = -((velocity[upper, 0] - velocity[lower, 0]) * nx
                      + (velocity[upper, 1] - velocity[lower, 1]) * ny
@@ -419,18 +445,3 @@ def _support_sweep(rows, solve_order, velocity, moved, floor_slot, bottom_up, in
             velocity[upper, 0] += approach * nx
             velocity[upper, 1] += approach * ny
             velocity[upper, 2] += approach * nz
-
-
-@numba.njit(error_model='numpy', inline='always')
-def _held_up(rows, s, solve_order, supported, ground):
-    """(upper, lower, sign) of contact s when it is a pair whose normal bears weight and
-    whose lower sphere is supported (sign: +1 when the upper is its first sphere, the
-    normal's sense from lower to upper), else (-1, -1, 0.0). ground: the faces' row."""
-    a, b = solve_order[s, 0], solve_order[s, 1]
-    sign = 1.0 if rows[s, NZ] > 0.0 else -1.0
-    if b == ground or sign * rows[s, NZ] < _BEARING:
-        return -1, -1, 0.0  # a face, or side by side: neither holds the other up
-    upper, lower = (a, b) if sign > 0.0 else (b, a)
-    if not supported[lower]:
-        return -1, -1, 0.0
-    return upper, lower, sign
