@@ -371,6 +371,8 @@ def _support_order(rows, pair_ends, faces_of, slot, sphere, old_position, radius
         floors += faces_of[f, 1] == 2  # the floor: low z
     floor_member = np.empty(floors, dtype=np.int64)
     floor_gap = np.empty(floors)
+    if floors == 0:  # nothing is held up: spheres falling through air and water
+        return np.empty((0, 2), dtype=np.int64), np.empty((0, 4)), floor_member, floor_gap
     floors = 0
     for f in range(slot.size - found):
         if faces_of[f, 1] == 2:
