@@ -369,13 +369,7 @@ def _settle_on_floor(ends, facts, p, start, v, r, rebounded, faces, static_frict
     members = r.size
     # Contacts ordered by the lower sphere's height: a counting sort on layers of the
     # smallest radius.
-    lowest, highest, smallest = math.inf, -math.inf, math.inf
-    for k in range(members):
-        lowest = min(lowest, p[k, 2])
-        highest = max(highest, p[k, 2])
-        smallest = min(smallest, r[k])
-    order, used_whole = bottom_up_order(ends, p[:, 2], lowest, highest, smallest, wholes,
-                                        used_whole)
+    order, used_whole = bottom_up_order(ends, p[:, 2], r, wholes, used_whole)
     supported = np.empty(members, dtype=np.bool_)
     lifting = np.empty(members, dtype=np.bool_)
     for k in range(members):

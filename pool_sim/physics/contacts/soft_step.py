@@ -366,27 +366,21 @@ def _support_order(rows, pair_ends, faces_of, slot, sphere, old_position, radius
     its gap at the step's start, m; floor_member (f,) int64 and floor_gap (f,) m: the
     spheres with a floor contact and its gap at the step's start)."""
     found, members = pair_ends.shape[0], sphere.size
+    floor_member = np.empty(slot.size - found, dtype=np.int64)
+    floor_gap = np.empty(slot.size - found)
     floors = 0
     for f in range(slot.size - found):
-        floors += faces_of[f, 1] == 2  # the floor: low z
-    floor_member = np.empty(floors, dtype=np.int64)
-    floor_gap = np.empty(floors)
-    if floors == 0:  # nothing is held up: spheres falling through air and water
-        return np.empty((0, 2), dtype=np.int64), np.empty((0, 4)), floor_member, floor_gap
-    floors = 0
-    for f in range(slot.size - found):
-        if faces_of[f, 1] == 2:
+        if faces_of[f, 1] == 2:  # the floor: low z
             floor_member[floors] = faces_of[f, 0]
             floor_gap[floors] = rows[slot[found + f], GAP]
             floors += 1
-    z = np.empty(members)
-    lowest, highest, smallest = math.inf, -math.inf, math.inf
+    floor_member, floor_gap = floor_member[:floors], floor_gap[:floors]
+    if floors == 0:  # nothing is held up: spheres falling through air and water
+        return np.empty((0, 2), dtype=np.int64), np.empty((0, 4)), floor_member, floor_gap
+    z, member_radius = np.empty(members), np.empty(members)
     for k in range(members):
-        z[k] = old_position[2, sphere[k]]
-        lowest, highest = min(lowest, z[k]), max(highest, z[k])
-        smallest = min(smallest, radius[sphere[k]])
-    order, _ = bottom_up_order(pair_ends, z, lowest, highest, smallest,
-                               np.empty(0, dtype=np.int64), 0)
+        z[k], member_radius[k] = old_position[2, sphere[k]], radius[sphere[k]]
+    order, _ = bottom_up_order(pair_ends, z, member_radius, np.empty(0, dtype=np.int64), 0)
     ends = np.empty((found, 2), dtype=np.int64)
     facts = np.empty((found, 4))
     bearing = 0
