@@ -64,7 +64,7 @@ def workspace(count):
         return np.empty(0), np.empty(0, dtype=np.int64)
     contacts = contact_capacity(count)
     reals = 42 * count + 14 * contacts
-    wholes = 20 * count + 15 * contacts + 2 * (64 * (_MAX_LEVEL + 1) + 1) + 2
+    wholes = 21 * count + 16 * contacts + 2 * (64 * (_MAX_LEVEL + 1) + 1) + 2
     return np.empty(reals), np.empty(wholes, dtype=np.int64)
 
 

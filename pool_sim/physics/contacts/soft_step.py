@@ -41,7 +41,7 @@ from .face_crossing import bound_face_crossings
 from .soft_contact import APPROACH, BIAS_RATE, COLUMNS, FX, FY, FZ, GAP, IMPULSE_SCALE, \
     MASS, MASS_SCALE, MU_K, MU_S, NORMAL, NX, NY, NZ, restitute_contact, soft_coefficients, \
     solve_contact
-from .memory import CONTACTS_PER_SPHERE, remembered_slot
+from .memory import CONTACTS_PER_SPHERE, home_order, remembered_slot
 from .detection import detect_contacts, take, END_POSITION, END_VELOCITY, RADIUS, \
     START_POSITION, START_VELOCITY
 
@@ -119,13 +119,14 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
         ends[c, 0], ends[c, 1] = faces_of[f, 0], ground
         keys[c] = (identity[sphere[faces_of[f, 0]]] << 32) | (_FACE_KEY + faces_of[f, 1])
         homes[c] = sphere[faces_of[f, 0]]
+    by_home, used_whole = home_order(homes, count, wholes, used_whole)
     rows, used_real = take(reals, used_real, COLUMNS * total)
     rows = rows.reshape((total, COLUMNS))
     slot, _ = colour_contacts(ends, ground, wholes, used_whole)
     _fill_rows(rows, slot, ends, contacts, faces_of, sphere, ground, old_position,
                old_velocity, radius, mass, faces, contact, has_friction, settings, dt)
-    _warm_start(rows, slot, keys, homes, memory_keys, memory_forces, memory_held, ends,
-                sphere, radius, settings, dt)
+    _warm_start(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memory_held,
+                ends, sphere, radius, settings, dt)
     velocity_rows, moved, change, inverse_mass = _body_rows(sphere, old_velocity, velocity,
                                                             mass, settings, reals, used_real)
     bound_face_crossings(change, faces_of, sphere, old_position, old_velocity, position,
@@ -142,7 +143,8 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     for s in range(total):
         restitute_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity_rows,
                           inverse_mass, threshold, contact[0])
-    _remember(rows, slot, keys, homes, memory_keys, memory_forces, memory_held, settings, dt)
+    _remember(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memory_held,
+              settings, dt)
     put_back_count = 0
     for k in range(members):
         i = sphere[k]
@@ -243,15 +245,17 @@ def _fill_rows(rows, slot, ends, contacts, faces_of, sphere, ground, old_positio
 
 
 @numba.njit(error_model='numpy')
-def _warm_start(rows, slot, keys, homes, memory_keys, memory_forces, memory_held, ends,
-                sphere, radius, settings, dt):
-    """Last step's forces (memory_*: each key looked up in its home row) into the rows of
-    the contacts that persist, as impulses over this step's substep, friction turned into
-    the new tangent plane, the spring stiffened if that load would press it more than
-    LOADED_OVERLAP (ends, sphere, radius: for the smaller radius)."""
+def _warm_start(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memory_held,
+                ends, sphere, radius, settings, dt):
+    """Last step's forces (memory_*: each key looked up in its home row, the contacts in
+    by_home's order) into the rows of the contacts that persist, as impulses over this
+    step's substep, friction turned into the new tangent plane, the spring stiffened if
+    that load would press it more than LOADED_OVERLAP (ends, sphere, radius: for the
+    smaller radius)."""
     h = dt / settings[0]
     ground = sphere.size
-    for c in range(keys.size):
+    for q in range(keys.size):
+        c = by_home[q]
         home = homes[c]
         j = remembered_slot(memory_keys, memory_held, home, keys[c])
         if j < 0:
@@ -277,13 +281,15 @@ def _warm_start(rows, slot, keys, homes, memory_keys, memory_forces, memory_held
 
 
 @numba.njit(error_model='numpy')
-def _remember(rows, slot, keys, homes, memory_keys, memory_forces, memory_held, settings,
-              dt):
+def _remember(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memory_held,
+              settings, dt):
     """This step's contacts as forces (N) in memory_* for the next step, each in its home
-    row, in contact order (as many as a row holds: the rest start from none)."""
+    row, in contact order (by_home's: contacts of one home in the order they come; as
+    many as a row holds: the rest start from none)."""
     per_second = settings[0] / dt
     memory_held[:] = 0
-    for c in range(keys.size):
+    for q in range(keys.size):
+        c = by_home[q]
         home = homes[c]
         k = memory_held[home]
         if k == CONTACTS_PER_SPHERE:
