@@ -66,9 +66,10 @@ def matched(keys, homes, memory_keys, memory_held):
 def home_order(homes, count, wholes, used_whole):
     """(order (m,) int64: the contacts by their home row (homes (m,), rows 0..count-1),
     contacts of one home in the order they come; used wholes): a counting sort, so that the
-    warm start and _remember walk the memory's rows in order (in the order contacts are
-    found, each looked up a row of its own, the rows came in from memory a cache miss at a
-    time: 451 against 134 µs with the rows in cache, 10 000 spheres at rest)."""
+    warm start and remember (soft_rows.py) walk the memory's rows in order (in the order
+    contacts are found, each looked up a row of its own, the rows came in from memory a
+    cache miss at a time: 451 against 134 µs with the rows in cache, 10 000 spheres at
+    rest)."""
     start, used_whole = take(wholes, used_whole, count + 1)
     start[:] = 0
     for c in range(homes.size):

@@ -26,11 +26,12 @@ step:
    the step's start faster than RESTING_FACTOR x |g| dt leaves at restitution x that
    approach (the approach before the step's own gravity: bouncing that adds energy).
 
+The rows it solves on are made in soft_rows.py, one contact a row (soft_contact.py's
+columns), and solved by soft_contact.py's per-contact functions.
+
 Impulses are equal and opposite (momentum is kept to rounding). Point masses do not spin:
 friction slows relative sliding, nothing rolls.
 """
-import math
-
 import numba
 import numpy as np
 
@@ -38,23 +39,17 @@ from ..kernels.step_guard import finite, put_back
 from .colouring import colour_contacts
 from .layers import bottom_up_order
 from .face_crossing import bound_face_crossings
-from .soft_contact import APPROACH, BIAS_RATE, COLUMNS, FX, FY, FZ, GAP, IMPULSE_SCALE, \
-    MASS, MASS_SCALE, MU_K, MU_S, NORMAL, NX, NY, NZ, restitute_contact, soft_coefficients, \
-    solve_contact
-from .memory import CONTACTS_PER_SPHERE, home_order, remembered_slot
-from .detection import detect_contacts, take, END_POSITION, END_VELOCITY, RADIUS, \
-    START_POSITION, START_VELOCITY
+from .soft_contact import COLUMNS, FX, GAP, NORMAL, NX, NY, NZ, restitute_contact, solve_contact
+from .soft_rows import body_rows, contact_keys, face_contacts, fill_rows, members_of, \
+    remember, warm_start
+from .memory import home_order
+from .detection import detect_contacts, take
 
 # Scene keys' defaults (schema.py gives their ranges): chosen in results/collisions.
 SUBSTEPS = 4
 STIFFNESS_HZ = 120.0
 DAMPING_RATIO = 10.0
 PUSH_OUT_SPEED = 0.5  # m/s
-# The contact's own frequency is held below this fraction of the substep rate (Box2D's
-# quarter): stiffer than that an implicit spring only rings.
-_MOST_HZ_PER_SUBSTEP_RATE = 0.25
-# A face is a contact of a sphere's within this fraction of its radius of its path.
-_FACE_REACH = 0.5
 # A restitution pass bounces an approach faster than this x |g| dt only (slower ones rest).
 RESTING_FACTOR = 2.0
 # A contact whose normal is at least this steep (its z part) bears weight: one sphere
@@ -62,16 +57,6 @@ RESTING_FACTOR = 2.0
 _BEARING = 0.3
 # Touching, for _support_sweep: apart by no more than this, m.
 _HOLDING_GAP = 1e-9
-# A contact stiffens with the load it carried last step, up to a quarter of the substep
-# rate, toward the spring that load would press no more than this fraction of the smaller
-# radius: at 120 Hz a column of heavy spheres on a light one sank 21 % of its radius into
-# it (10 000 spheres landing), at the quarter 7.6 %. Real contacts stiffen under load too
-# (Hertz: F ~ d^1.5). Beyond the quarter (twice it, tried) the landed pile jittered: rms
-# 0.12 m/s after 10 s against 0.01.
-LOADED_OVERLAP = 0.002
-# Identity keys: the pair's identities in the high and low 32 bits (smaller first); a
-# sphere and a face: its identity, then _FACE_KEY + the face (0-5: low x, y, z, high).
-_FACE_KEY = (1 << 32) - 8
 
 
 @numba.njit(error_model='numpy')
@@ -98,37 +83,22 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     if pairs.shape[1] == 0:
         memory_held[:] = 0
         return 0
-    sphere, row_of, used_whole = _members(pairs, order, count, wholes, used_whole)
-    members = sphere.size
-    ground = members  # a row at rest with no inverse mass: the faces' partner
-    faces_of, total = _face_contacts(sphere, old_position, position, radius, faces, has_faces,
-                                     pairs.shape[1])
-    ends, used_whole = take(wholes, used_whole, 2 * total)
-    ends = ends.reshape((total, 2))
-    keys, used_whole = take(wholes, used_whole, total)
-    homes, used_whole = take(wholes, used_whole, total)  # the memory's row of each
-    for c in range(pairs.shape[1]):
-        a, b = row_of[pairs[0, c]], row_of[pairs[1, c]]
-        ends[c, 0], ends[c, 1] = a, b
-        i, j = sphere[a], sphere[b]
-        lower = i if identity[i] < identity[j] else j
-        keys[c] = (identity[lower] << 32) | identity[i + j - lower]
-        homes[c] = lower
-    for f in range(total - pairs.shape[1]):
-        c = pairs.shape[1] + f
-        ends[c, 0], ends[c, 1] = faces_of[f, 0], ground
-        keys[c] = (identity[sphere[faces_of[f, 0]]] << 32) | (_FACE_KEY + faces_of[f, 1])
-        homes[c] = sphere[faces_of[f, 0]]
+    sphere, row_of, state_row, used_whole = members_of(pairs, order, count, wholes,
+                                                       used_whole)
+    members, state = sphere.size, contacts.state
+    faces_of, total = face_contacts(state_row, state, faces, has_faces, pairs.shape[1])
+    ends, keys, homes, used_whole = contact_keys(pairs, faces_of, row_of, sphere, identity,
+                                                 total, wholes, used_whole)
     by_home, used_whole = home_order(homes, count, wholes, used_whole)
     rows, used_real = take(reals, used_real, COLUMNS * total)
     rows = rows.reshape((total, COLUMNS))
-    slot, _ = colour_contacts(ends, ground, wholes, used_whole)
-    _fill_rows(rows, slot, ends, contacts, faces_of, sphere, ground, old_position,
-               old_velocity, radius, mass, faces, contact, has_friction, settings, dt)
-    _warm_start(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memory_held,
-                ends, sphere, radius, settings, dt)
-    velocity_rows, moved, change, inverse_mass = _body_rows(sphere, old_velocity, velocity,
-                                                            mass, settings, reals, used_real)
+    slot, _ = colour_contacts(ends, members, wholes, used_whole)
+    velocity_rows, moved, change, inverse_mass = body_rows(sphere, state_row, state, mass,
+                                                           settings, reals, used_real)
+    fill_rows(rows, slot, ends, contacts, faces_of, state_row, inverse_mass, mass, sphere,
+              faces, contact, has_friction, settings, dt)
+    warm_start(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memory_held,
+               ends, sphere, radius, settings, dt)
     bound_face_crossings(change, faces_of, sphere, old_position, old_velocity, position,
                          velocity, radius, faces, settings[0], dt)
     solve_order = np.empty_like(ends)  # each slot's two rows
@@ -143,8 +113,8 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     for s in range(total):
         restitute_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity_rows,
                           inverse_mass, threshold, contact[0])
-    _remember(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memory_held,
-              settings, dt)
+    remember(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memory_held,
+             settings, dt)
     put_back_count = 0
     for k in range(members):
         i = sphere[k]
@@ -158,174 +128,6 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
         put_back(position, velocity, old_position, failed, i)
         put_back_count += 1
     return put_back_count
-
-
-@numba.njit(error_model='numpy')
-def _members(pairs, order, count, wholes, used_whole):
-    """(sphere (members,) int64: the sphere of each row, in cell order; row_of (n,) int64:
-    detection's state row -> our row; used wholes)."""
-    row_of, used_whole = take(wholes, used_whole, count)
-    row_of[:] = -1
-    for c in range(pairs.shape[1]):
-        row_of[pairs[0, c]], row_of[pairs[1, c]] = 0, 0
-    sphere, used_whole = take(wholes, used_whole, count)
-    members = 0
-    for k in range(count):
-        if row_of[k] == 0:
-            row_of[k] = members
-            sphere[members] = order[k]
-            members += 1
-    return sphere[:members], row_of, used_whole
-
-
-@numba.njit(error_model='numpy')
-def _face_contacts(sphere, old_position, position, radius, faces, has_faces, found):
-    """(faces_of (f, 2) int64: each face contact's row and face 0-5; found + f): the faces
-    within _FACE_REACH of a radius of a member's path (start or smooth end)."""
-    members = sphere.size
-    faces_of = np.empty((6 * members if has_faces else 0, 2), dtype=np.int64)
-    f = 0
-    for k in range(members if has_faces else 0):
-        i = sphere[k]
-        r = radius[i]
-        for axis in range(3):
-            low = min(old_position[axis, i], position[axis, i]) - r - faces[axis]
-            high = faces[axis + 3] - r - max(old_position[axis, i], position[axis, i])
-            if low < _FACE_REACH * r:
-                faces_of[f, 0], faces_of[f, 1] = k, axis
-                f += 1
-            if high < _FACE_REACH * r:
-                faces_of[f, 0], faces_of[f, 1] = k, axis + 3
-                f += 1
-    return faces_of[:f], found + f
-
-
-@numba.njit(error_model='numpy')
-def _fill_rows(rows, slot, ends, contacts, faces_of, sphere, ground, old_position,
-               old_velocity, radius, mass, faces, contact, has_friction, settings, dt):
-    """Each contact's row (the COLUMNS) at its slot, from the step's start; impulses
-    zero and the scene's spring (_warm_start puts last step's impulses in)."""
-    found = contacts.pairs.shape[1]
-    h = dt / settings[0]
-    soft = soft_coefficients(min(settings[1], _MOST_HZ_PER_SUBSTEP_RATE / h), settings[2], h)
-    mu_s = contact[1] if has_friction else 0.0
-    mu_k = contact[2] if has_friction else 0.0
-    rolling = contact[3] if has_friction else 0.0
-    for c in range(ends.shape[0]):
-        s = slot[c]
-        rows[s, :] = 0.0
-        i = sphere[ends[c, 0]]
-        if c < found:
-            j = sphere[ends[c, 1]]
-            nx, ny, nz = (contacts.normal[0, c], contacts.normal[1, c],
-                          contacts.normal[2, c])
-            rows[s, GAP] = ((old_position[0, i] - old_position[0, j]) * nx
-                             + (old_position[1, i] - old_position[1, j]) * ny
-                             + (old_position[2, i] - old_position[2, j]) * nz
-                             - radius[i] - radius[j])
-            rows[s, MASS] = 1.0 / (1.0 / mass[i] + 1.0 / mass[j])
-            rows[s, APPROACH] = ((old_velocity[0, i] - old_velocity[0, j]) * nx
-                                  + (old_velocity[1, i] - old_velocity[1, j]) * ny
-                                  + (old_velocity[2, i] - old_velocity[2, j]) * nz)
-            rows[s, MU_S], rows[s, MU_K] = mu_s, mu_k
-        else:
-            face = faces_of[c - found, 1]
-            axis = face % 3
-            inward = 1.0 if face < 3 else -1.0  # the face's normal, into the pool
-            nx, ny, nz = (inward if axis == 0 else 0.0, inward if axis == 1 else 0.0,
-                          inward if axis == 2 else 0.0)
-            rows[s, GAP] = (old_position[axis, i] - radius[i] - faces[axis] if face < 3
-                             else faces[face] - radius[i] - old_position[axis, i])
-            rows[s, MASS] = mass[i]
-            rows[s, APPROACH] = inward * old_velocity[axis, i]
-            # Rolling resistance on a face, as the per-sphere face rule has it.
-            rows[s, MU_S], rows[s, MU_K] = mu_s, mu_k + rolling
-        rows[s, NX], rows[s, NY], rows[s, NZ] = nx, ny, nz
-        rows[s, BIAS_RATE], rows[s, MASS_SCALE], rows[s, IMPULSE_SCALE] = soft
-
-
-@numba.njit(error_model='numpy')
-def _warm_start(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memory_held,
-                ends, sphere, radius, settings, dt):
-    """Last step's forces (memory_*: each key looked up in its home row, the contacts in
-    by_home's order) into the rows of the contacts that persist, as impulses over this
-    step's substep, friction turned into the new tangent plane, the spring stiffened if
-    that load would press it more than LOADED_OVERLAP (ends, sphere, radius: for the
-    smaller radius)."""
-    h = dt / settings[0]
-    ground = sphere.size
-    for q in range(keys.size):
-        c = by_home[q]
-        home = homes[c]
-        j = remembered_slot(memory_keys, memory_held, home, keys[c])
-        if j < 0:
-            continue
-        held = memory_forces[home, j]
-        s = slot[c]
-        nx, ny, nz = rows[s, NX], rows[s, NY], rows[s, NZ]
-        fx, fy, fz = held[1] * h, held[2] * h, held[3] * h
-        along = fx * nx + fy * ny + fz * nz
-        rows[s, NORMAL] = held[0] * h
-        rows[s, FX], rows[s, FY], rows[s, FZ] = (fx - along * nx, fy - along * ny,
-                                                    fz - along * nz)
-        a, b = ends[c, 0], ends[c, 1]
-        smaller = radius[sphere[a]] if b == ground else min(radius[sphere[a]],
-                                                            radius[sphere[b]])
-        # The frequency whose spring the load presses LOADED_OVERLAP x smaller.
-        needed = math.sqrt(max(held[0], 0.0) / (
-            rows[s, MASS] * LOADED_OVERLAP * smaller)) / (2.0 * math.pi)
-        most = _MOST_HZ_PER_SUBSTEP_RATE / h
-        if needed > min(settings[1], most):
-            soft = soft_coefficients(min(needed, most), settings[2], h)
-            rows[s, BIAS_RATE], rows[s, MASS_SCALE], rows[s, IMPULSE_SCALE] = soft
-
-
-@numba.njit(error_model='numpy')
-def _remember(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memory_held,
-              settings, dt):
-    """This step's contacts as forces (N) in memory_* for the next step, each in its home
-    row, in contact order (by_home's: contacts of one home in the order they come; as
-    many as a row holds: the rest start from none)."""
-    per_second = settings[0] / dt
-    memory_held[:] = 0
-    for q in range(keys.size):
-        c = by_home[q]
-        home = homes[c]
-        k = memory_held[home]
-        if k == CONTACTS_PER_SPHERE:
-            continue
-        s = slot[c]
-        memory_keys[home, k] = keys[c]
-        memory_forces[home, k, 0] = rows[s, NORMAL] * per_second
-        memory_forces[home, k, 1] = rows[s, FX] * per_second
-        memory_forces[home, k, 2] = rows[s, FY] * per_second
-        memory_forces[home, k, 3] = rows[s, FZ] * per_second
-        memory_held[home] = k + 1
-
-
-@numba.njit(error_model='numpy')
-def _body_rows(sphere, old_velocity, velocity, mass, settings, reals, used_real):
-    """(velocity (rows, 4) m/s from the step's start, moved (rows, 4) m since it,
-    change (rows, 4) m/s: the smooth step's velocity change per substep, inverse_mass
-    (rows,) 1/kg) for the members and, last, the ground (at rest, no inverse mass)."""
-    members = sphere.size
-    block, used_real = take(reals, used_real, 13 * (members + 1))
-    velocity_rows = block[:4 * (members + 1)].reshape((members + 1, 4))
-    moved = block[4 * (members + 1):8 * (members + 1)].reshape((members + 1, 4))
-    change = block[8 * (members + 1):12 * (members + 1)].reshape((members + 1, 4))
-    inverse_mass = block[12 * (members + 1):]
-    velocity_rows[:, :] = 0.0
-    moved[:, :] = 0.0
-    change[:, :] = 0.0
-    inverse_mass[members] = 0.0
-    substeps = settings[0]
-    for k in range(members):
-        i = sphere[k]
-        for axis in range(3):
-            velocity_rows[k, axis] = old_velocity[axis, i]
-            change[k, axis] = (velocity[axis, i] - old_velocity[axis, i]) / substeps
-        inverse_mass[k] = 1.0 / mass[i]
-    return velocity_rows, moved, change, inverse_mass
 
 
 @numba.njit(error_model='numpy')
