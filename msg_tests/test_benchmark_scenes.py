@@ -25,3 +25,24 @@ def test_the_scattered_scene_without_collisions_differs_only_in_its_effects():
     colliding, smooth = scattered_scene(50, True), scattered_scene(50, False)
     assert tuple(colliding['effects']) == (*smooth['effects'], 'collisions')
     assert np.array_equal(colliding.sphere_array('position'), smooth.sphere_array('position'))
+
+
+def test_compare_commits_steps_the_base_commits_physics_not_the_working_trees(tmp_path):
+    """benchmarks/compare_commits: the base's physics core comes out of git as a package of
+    its own, and the scene built for it is that package's Scene."""
+    import sys
+    from benchmarks import compare_commits
+    folder = tmp_path / 'base'
+    folder.mkdir()
+    try:
+        base = compare_commits.base_physics('HEAD', folder)
+        assert base.__name__ == 'pool_sim_base_physics'
+        assert str(folder) in base.__file__
+        import pool_sim.physics
+        assert base.Simulation is not pool_sim.physics.Simulation
+        for made in (base.Simulation, base.Scene):
+            assert made.__module__.startswith('pool_sim_base_physics')
+    finally:
+        sys.path.remove(str(folder))
+        for name in [name for name in sys.modules if name.startswith('pool_sim_base_physics')]:
+            del sys.modules[name]
