@@ -83,6 +83,28 @@ def take(buffer, used, size):
     return np.empty(size, dtype=buffer.dtype), used
 
 
+@numba.njit(error_model='numpy')
+def counting_sort(keys, buckets, wholes, used_whole):
+    """(order (m,) int64: the items 0..m-1 by their keys (m,) int64, each in 0..buckets-1,
+    items of one key in the order they come; start (buckets + 1,) int64: where each key's
+    items begin in order; used wholes): linear in m + buckets, the sort the collision pass
+    orders its spheres and contacts by (cells, layers, memory rows)."""
+    start, used_whole = take(wholes, used_whole, buckets + 1)
+    start[:] = 0
+    for c in range(keys.size):
+        start[keys[c] + 1] += 1
+    for k in range(buckets):
+        start[k + 1] += start[k]
+    order, used_whole = take(wholes, used_whole, keys.size)
+    for c in range(keys.size):
+        order[start[keys[c]]] = c
+        start[keys[c]] += 1
+    for k in range(buckets, 0, -1):  # each key's start has moved on to the next's: back
+        start[k] = start[k - 1]
+    start[0] = 0
+    return order, start, used_whole
+
+
 @numba.njit(error_model='numpy', inline='always')
 def _cell_of(coordinate, origin, size, cells):
     """The cell (0..cells-1) a coordinate m falls in along one axis of a level's grid."""
@@ -225,8 +247,6 @@ def _cell_order(centre, level, low, size, cells, first_cell, wholes, used_whole)
     home, used_whole = take(wholes, used_whole, count)
     where, used_whole = take(wholes, used_whole, 3 * count)
     where = where.reshape((3, count))
-    start, used_whole = take(wholes, used_whole, first_cell[levels] + 1)
-    start[:] = 0
     for i in range(count):
         at = level[i]
         for axis in range(3):
@@ -234,15 +254,7 @@ def _cell_order(centre, level, low, size, cells, first_cell, wholes, used_whole)
                                       cells[at, axis])
         home[i] = first_cell[at] + where[0, i] + cells[at, 0] * (
             where[1, i] + cells[at, 1] * where[2, i])
-        start[home[i] + 1] += 1
-    for c in range(first_cell[levels]):
-        start[c + 1] += start[c]
-    fill, used_whole = take(wholes, used_whole, first_cell[levels])
-    fill[:] = start[:-1]
-    order, used_whole = take(wholes, used_whole, count)
-    for i in range(count):
-        order[fill[home[i]]] = i
-        fill[home[i]] += 1
+    order, start, used_whole = counting_sort(home, first_cell[levels], wholes, used_whole)
     return order, where, start, used_whole
 
 

@@ -5,7 +5,7 @@ import math
 
 import numba
 
-from .detection import take
+from .detection import counting_sort, take
 
 
 @numba.njit(error_model='numpy')
@@ -20,17 +20,9 @@ def bottom_up_order(ends, z, radius, wholes, used_whole):
         lowest, highest = min(lowest, z[k]), max(highest, z[k])
         smallest = min(smallest, radius[k])
     layers = int(min((highest - lowest) / smallest, 4.0 * found)) + 1
-    layer_start, used_whole = take(wholes, used_whole, layers + 1)
-    layer_start[:] = 0
     layer, used_whole = take(wholes, used_whole, found)
     for c in range(found):
         height = min(z[ends[c, 0]], z[ends[c, 1]])
         layer[c] = min(int((height - lowest) / smallest), layers - 1)
-        layer_start[layer[c] + 1] += 1
-    for k in range(layers):
-        layer_start[k + 1] += layer_start[k]
-    order, used_whole = take(wholes, used_whole, found)
-    for c in range(found):
-        order[layer_start[layer[c]]] = c
-        layer_start[layer[c]] += 1
+    order, _, used_whole = counting_sort(layer, layers, wholes, used_whole)
     return order, used_whole

@@ -11,8 +11,6 @@ places, so no pair's force is handed to another."""
 import numba
 import numpy as np
 
-from .detection import take
-
 # Slots a row: one cache line of keys. A sphere in a dense pile owns about half its ~6-12
 # pairs and its faces; a step with more starts the rest from no force.
 CONTACTS_PER_SPHERE = 8
@@ -61,23 +59,3 @@ def matched(keys, homes, memory_keys, memory_held):
         found += remembered_slot(memory_keys, memory_held, homes[c], keys[c]) >= 0
     return found
 
-
-@numba.njit(error_model='numpy')
-def home_order(homes, count, wholes, used_whole):
-    """(order (m,) int64: the contacts by their home row (homes (m,), rows 0..count-1),
-    contacts of one home in the order they come; used wholes): a counting sort, so that the
-    warm start and remember (soft_rows.py) walk the memory's rows in order (in the order
-    contacts are found, each looked up a row of its own, the rows came in from memory a
-    cache miss at a time: 451 against 134 µs with the rows in cache, 10 000 spheres at
-    rest)."""
-    start, used_whole = take(wholes, used_whole, count + 1)
-    start[:] = 0
-    for c in range(homes.size):
-        start[homes[c] + 1] += 1
-    for k in range(count):
-        start[k + 1] += start[k]
-    order, used_whole = take(wholes, used_whole, homes.size)
-    for c in range(homes.size):
-        order[start[homes[c]]] = c
-        start[homes[c]] += 1
-    return order, used_whole

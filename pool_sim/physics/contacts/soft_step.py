@@ -42,8 +42,7 @@ from .face_crossing import bound_face_crossings
 from .soft_contact import COLUMNS, FX, GAP, NORMAL, NX, NY, NZ, restitute_contact, solve_contact
 from .soft_rows import body_rows, contact_keys, face_contacts, fill_rows, members_of, \
     remember, warm_start
-from .memory import home_order
-from .detection import detect_contacts, take
+from .detection import counting_sort, detect_contacts, take
 
 # Scene keys' defaults (schema.py gives their ranges): chosen in results/collisions.
 SUBSTEPS = 4
@@ -89,7 +88,10 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     faces_of, total = face_contacts(state_row, state, faces, has_faces, pairs.shape[1])
     ends, keys, homes, used_whole = contact_keys(pairs, faces_of, row_of, sphere, identity,
                                                  total, wholes, used_whole)
-    by_home, used_whole = home_order(homes, count, wholes, used_whole)
+    # The warm start and remember walk the contacts by their home row, so that the memory's
+    # rows come in order (in the order contacts are found, the rows came in a cache miss at
+    # a time: 451 against 134 µs with them in cache, 10 000 spheres at rest).
+    by_home, _, used_whole = counting_sort(homes, count, wholes, used_whole)
     rows, used_real = take(reals, used_real, COLUMNS * total)
     rows = rows.reshape((total, COLUMNS))
     slot, _ = colour_contacts(ends, members, wholes, used_whole)
