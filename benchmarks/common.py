@@ -1,6 +1,7 @@
 """Shared by the benchmarks: many-sphere scenes, median timers, CPU time of a process, CSV."""
 import csv
 import os
+from pathlib import Path
 import statistics
 import time
 
@@ -118,6 +119,15 @@ def seconds_per_step_in_turns(simulations, steps=20, repeats=31, restart=False):
             simulation.run(steps, simulation.max_step)
             mine.append((time.perf_counter() - start) / steps)
     return [statistics.median(mine) for mine in samples]
+
+
+def write_results(path, text):
+    """A results file: text written to path (its folder made if it has none yet), and
+    printed."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+    print(text)
 
 
 def write_csv(rows, path):

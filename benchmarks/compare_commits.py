@@ -28,7 +28,7 @@ import time
 import numpy as np
 
 import benchmarks.common
-from benchmarks.common import provenance
+from benchmarks.common import provenance, write_results
 from benchmarks.contact_stages import MOMENTS_S, scene
 from benchmarks.collisions import RATE_HZ
 import pool_sim.physics
@@ -128,11 +128,7 @@ def main():
                 lines.append(f'| {solver} | {name} | {before * 1e6:.0f} | {after * 1e6:.0f} | '
                              f'{after / before:.2f} | {"yes" if same else "no"} |')
                 print(lines[-1], flush=True)
-    text = '\n'.join(lines) + '\n'
-    out = Path(arguments.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text)
-    print(text)
+    write_results(arguments.out, '\n'.join(lines) + '\n')
 
 
 if __name__ == '__main__':

@@ -28,7 +28,8 @@ import time
 
 import numpy as np
 
-from benchmarks.common import many_spheres_scene, provenance, seconds_per_step_in_turns, timed
+from benchmarks.common import many_spheres_scene, provenance, seconds_per_step_in_turns, timed, \
+    write_results
 from benchmarks.scaling import copy_bandwidth_bytes_per_s, mujoco_cost, pool_sim_cost
 from pool_sim.physics import DEFAULT_EFFECTS, INTEGRATORS, Scene, Simulation, stepper
 from pool_sim.physics.integrators import DEFAULT_INTEGRATOR, FORCE_EVALUATIONS
@@ -164,9 +165,8 @@ def main():
                   pool_sim_cost(1, DEFAULT_EFFECTS, one_per_call=True) / 1000,
                   mujoco_cost(1, True) / 1000, mujoco_cost(1, True, one_per_call=True) / 1000)
     text = table(small, large, bandwidth, one_sphere, compiling)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(provenance('.venv/bin/python -m benchmarks.configurations') + '\n\n' + text)
-    print(text)
+    write_results(out, provenance('.venv/bin/python -m benchmarks.configurations') + '\n\n'
+                  + text)
 
 
 if __name__ == '__main__':

@@ -33,14 +33,13 @@ relax) for soft_step; for sequential_impulses, its sweeps are not counted here, 
 column is left empty.
 """
 import argparse
-from pathlib import Path
 import statistics
 import time
 
 import numpy as np
 
 from benchmarks.collisions import deepest_overlap, FRICTION, RATE_HZ, RESTITUTION
-from benchmarks.common import dropped_scene, provenance, scattered_scene
+from benchmarks.common import dropped_scene, provenance, scattered_scene, write_results
 from pool_sim.physics import Simulation, stepper
 from pool_sim.physics.contacts import soft_step, SOLVERS, workspace
 from pool_sim.physics.contacts.detection import detect_contacts
@@ -230,10 +229,7 @@ def main():
         densities, '',
         *stage_table(arguments.spheres, results, arguments.substeps),
         '', *pile_table(results)]) + '\n'
-    out = Path(arguments.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text)
-    print(text)
+    write_results(arguments.out, text)
 
 
 if __name__ == '__main__':
