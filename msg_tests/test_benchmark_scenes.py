@@ -46,3 +46,42 @@ def test_compare_commits_steps_the_base_commits_physics_not_the_working_trees(tm
         sys.path.remove(str(folder))
         for name in [name for name in sys.modules if name.startswith('pool_sim_base_physics')]:
             del sys.modules[name]
+
+
+def test_solve_passes_times_the_passes_a_step_runs(monkeypatch):
+    """benchmarks/solve_passes: the passes it times one by one, run in a substep's order on
+    the rows it builds, make the solver's own substeps' numbers to the bit."""
+    from benchmarks import solve_passes
+    from pool_sim.physics.contacts import soft_step
+    ready, settings, dt, threshold, restitution = solve_passes.prepared(1000, 3.0, False)
+    members = ready.sphere.size
+    ground = ready.solve_order[:, 1] == members
+    assert ground.any() and not ground.all()  # landed: pairs, and faces
+    substeps, h = int(settings[0]), dt / settings[0]
+
+    def fresh():
+        return (ready.rows.copy(), ready.velocity.copy(), ready.moved.copy(),
+                np.zeros(members, dtype=np.bool_))
+    rows, velocity, moved, supported = fresh()
+    soft_step._substeps(rows, ready.solve_order, velocity, moved, ready.change,
+                        ready.inverse_mass, settings, dt, ready.support, threshold, supported)
+    one_by_one, velocity_too, moved_too, supported = fresh()
+    for substep in range(substeps):
+        soft_step.change_pass(velocity_too, ready.change)
+        soft_step.carried_pass(one_by_one, ready.solve_order, velocity_too, ready.inverse_mass)
+        for bias in (True, False):
+            if not bias:
+                soft_step.move_pass(moved_too, velocity_too, h)
+            soft_step.solve_pass(one_by_one, ready.solve_order, velocity_too, moved_too,
+                                 ready.inverse_mass, settings[3], bias, 1.0 / h,
+                                 bias or substep < substeps - 1)
+            if bias:
+                soft_step._support_sweep(*ready.support, velocity_too, moved_too, 1.0 / h,
+                                         threshold, supported)
+    for ours, theirs in ((rows, one_by_one), (velocity, velocity_too), (moved, moved_too)):
+        assert np.array_equal(ours, theirs)
+    monkeypatch.setattr(solve_passes, 'REPEATS', 1)
+    times = solve_passes.pass_times(ready, settings, dt, threshold, restitution)
+    assert all(np.isfinite(value) and value > 0.0 for value in times.values())
+    table = solve_passes.table([('resting pile', 1000, ready.rows.shape[0], members, 1, times)])
+    assert table.count('\n') == 2 and "a step's substeps" in table

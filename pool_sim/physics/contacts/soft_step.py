@@ -32,6 +32,8 @@ columns), and solved by soft_contact.py's per-contact functions.
 Impulses are equal and opposite (momentum is kept to rounding). Point masses do not spin:
 friction slows relative sliding, nothing rolls.
 """
+from collections import namedtuple
+
 import numba
 import numpy as np
 
@@ -57,6 +59,17 @@ _BEARING = 0.3
 # Touching, for _support_sweep: apart by no more than this, m.
 _HOLDING_GAP = 1e-9
 
+Prepared = namedtuple('Prepared', ('rows', 'solve_order', 'velocity', 'moved', 'change',
+                                   'inverse_mass', 'support', 'sphere', 'slot', 'keys',
+                                   'homes', 'by_home'))
+Prepared.__doc__ = """What a step's substeps solve on (contact_rows), c contacts among m
+member spheres: rows (c, COLUMNS), each slot's contact (soft_contact.py's columns), colour by
+colour; solve_order (c, 2) int64, each slot's two member rows (the ground, row m, for a
+face); velocity, moved, change (m + 1, 4): the members' velocity m/s from the step's start,
+how far each has moved since it (m), the smooth step's velocity change per substep (m/s);
+inverse_mass (m + 1,) 1/kg; support: _support_order's; sphere (m,) int64, each member's
+sphere; slot, keys, homes (c,) int64 and by_home: for remember (soft_rows.py)."""
+
 
 @numba.njit(error_model='numpy')
 def resolve_collisions(old_position, old_velocity, position, velocity, mass, radius, faces,
@@ -78,11 +91,47 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
         return 0
     contacts, used_real, used_whole = detect_contacts(old_position, old_velocity, position,
                                                      velocity, radius, dt, reals, wholes)
-    pairs, order = contacts.pairs, contacts.order
-    if pairs.shape[1] == 0:
+    if contacts.pairs.shape[1] == 0:
         memory_held[:] = 0
         return 0
-    sphere, row_of, state_row, used_whole = members_of(pairs, order, count, wholes,
+    ready = contact_rows(contacts, used_real, used_whole, old_position, old_velocity,
+                         position, velocity, mass, radius, faces, has_faces, contact,
+                         has_friction, identity, memory_keys, memory_forces, memory_held,
+                         settings, dt, reals, wholes)
+    threshold = RESTING_FACTOR * resting_speed
+    supported = np.zeros(ready.sphere.size, dtype=np.bool_)  # _support_sweep's scratch
+    _substeps(ready.rows, ready.solve_order, ready.velocity, ready.moved, ready.change,
+              ready.inverse_mass, settings, dt, ready.support, threshold, supported)
+    restitution_pass(ready.rows, ready.solve_order, ready.velocity, ready.inverse_mass,
+                     threshold, contact[0])
+    remember(ready.rows, ready.slot, ready.keys, ready.homes, ready.by_home, memory_keys,
+             memory_forces, memory_held, settings, dt)
+    sphere, moved, velocity_rows = ready.sphere, ready.moved, ready.velocity
+    members = sphere.size
+    put_back_count = 0
+    for k in range(members):
+        i = sphere[k]
+        for axis in range(3):
+            position[axis, i] = old_position[axis, i] + moved[k, axis]
+            velocity[axis, i] = velocity_rows[k, axis]
+        flagged[i] = 0  # its faces are done
+        if failed[i] or finite((position[0, i], position[1, i], position[2, i],
+                                velocity[0, i], velocity[1, i], velocity[2, i])):
+            continue
+        put_back(position, velocity, old_position, failed, i)
+        put_back_count += 1
+    return put_back_count
+
+
+@numba.njit(error_model='numpy')
+def contact_rows(contacts, used_real, used_whole, old_position, old_velocity, position,
+                 velocity, mass, radius, faces, has_faces, contact, has_friction, identity,
+                 memory_keys, memory_forces, memory_held, settings, dt, reals, wholes):
+    """What the substeps solve on (a Prepared), made from detection's contacts (at least
+    one pair) and the workspace past what detection used (used_real, used_whole); the other
+    arguments as resolve_collisions takes them. Reads last step's memory, writes none."""
+    count, pairs = radius.size, contacts.pairs
+    sphere, row_of, state_row, used_whole = members_of(pairs, contacts.order, count, wholes,
                                                        used_whole)
     members, state = sphere.size, contacts.state
     faces_of, total = face_contacts(state_row, state, faces, has_faces, pairs.shape[1])
@@ -106,66 +155,80 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     solve_order = np.empty_like(ends)  # each slot's two rows
     for c in range(total):
         solve_order[slot[c], 0], solve_order[slot[c], 1] = ends[c, 0], ends[c, 1]
-    threshold = RESTING_FACTOR * resting_speed
     support = _support_order(rows, ends[:pairs.shape[1]], faces_of, slot, sphere,
                              old_position, radius)
-    supported = np.zeros(members, dtype=np.bool_)  # _support_sweep's scratch
-    _substeps(rows, solve_order, velocity_rows, moved, change, inverse_mass, settings, dt,
-              support, threshold, supported)
-    for s in range(total):
-        restitute_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity_rows,
-                          inverse_mass, threshold, contact[0])
-    remember(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memory_held,
-             settings, dt)
-    put_back_count = 0
-    for k in range(members):
-        i = sphere[k]
-        for axis in range(3):
-            position[axis, i] = old_position[axis, i] + moved[k, axis]
-            velocity[axis, i] = velocity_rows[k, axis]
-        flagged[i] = 0  # its faces are done
-        if failed[i] or finite((position[0, i], position[1, i], position[2, i],
-                                velocity[0, i], velocity[1, i], velocity[2, i])):
-            continue
-        put_back(position, velocity, old_position, failed, i)
-        put_back_count += 1
-    return put_back_count
+    return Prepared(rows, solve_order, velocity_rows, moved, change, inverse_mass, support,
+                    sphere, slot, keys, homes, by_home)
 
 
 @numba.njit(error_model='numpy')
 def _substeps(rows, solve_order, velocity, moved, change, inverse_mass, settings, dt,
               support, threshold, supported):
-    """The substeps (see the module's docstring, 4) on the rows of resolve_collisions;
-    support (_support_order's), threshold m/s, supported: _support_sweep's."""
+    """The substeps (see the module's docstring, 4) on a Prepared's arrays; support
+    (_support_order's), threshold m/s, supported: _support_sweep's."""
     substeps = int(settings[0])
     h = dt / substeps
     push_out_speed, inverse_h = settings[3], 1.0 / h
-    members, total = velocity.shape[0] - 1, rows.shape[0]
     for substep in range(substeps):
-        for k in range(members):
-            for axis in range(3):
-                velocity[k, axis] += change[k, axis]
-        for s in range(total):  # the impulses carried in
-            a, b = solve_order[s, 0], solve_order[s, 1]
-            normal = rows[s, NORMAL]
-            wa, wb = inverse_mass[a], inverse_mass[b]
-            for axis in range(3):
-                impulse = normal * rows[s, NX + axis] + rows[s, FX + axis]
-                velocity[a, axis] += wa * impulse
-                velocity[b, axis] -= wb * impulse
-        for s in range(total):
-            solve_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity, moved,
-                          inverse_mass, push_out_speed, True, inverse_h, True)
+        change_pass(velocity, change)
+        carried_pass(rows, solve_order, velocity, inverse_mass)
+        solve_pass(rows, solve_order, velocity, moved, inverse_mass, push_out_speed, True,
+                   inverse_h, True)
         _support_sweep(*support, velocity, moved, inverse_h, threshold, supported)
-        for k in range(members):
-            for axis in range(3):
-                moved[k, axis] += h * velocity[k, axis]
+        move_pass(moved, velocity, h)
         # After the last move a contact still apart is the next step's: held here, a pair
         # about to meet was slowed at a distance, inelastically.
-        last = substep == substeps - 1
-        for s in range(total):
-            solve_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity, moved,
-                          inverse_mass, push_out_speed, False, inverse_h, not last)
+        solve_pass(rows, solve_order, velocity, moved, inverse_mass, push_out_speed, False,
+                   inverse_h, substep < substeps - 1)
+
+
+# The passes of a substep, each over every member or contact (solve_order: each row's two
+# member rows, the ground last): functions of their own so that benchmarks/solve_passes.py
+# times the code the solver runs; inlined, as the loops they were.
+@numba.njit(error_model='numpy', inline='always')
+def change_pass(velocity, change):
+    """The smooth step's velocity change, a substep's share (change), into velocity."""
+    for k in range(velocity.shape[0] - 1):
+        for axis in range(3):
+            velocity[k, axis] += change[k, axis]
+
+
+@numba.njit(error_model='numpy', inline='always')
+def carried_pass(rows, solve_order, velocity, inverse_mass):
+    """Each contact's accumulated impulses (normal and friction) applied to its spheres."""
+    for s in range(rows.shape[0]):
+        a, b = solve_order[s, 0], solve_order[s, 1]
+        normal = rows[s, NORMAL]
+        wa, wb = inverse_mass[a], inverse_mass[b]
+        for axis in range(3):
+            impulse = normal * rows[s, NX + axis] + rows[s, FX + axis]
+            velocity[a, axis] += wa * impulse
+            velocity[b, axis] -= wb * impulse
+
+
+@numba.njit(error_model='numpy', inline='always')
+def solve_pass(rows, solve_order, velocity, moved, inverse_mass, push_out_speed, use_bias,
+               inverse_h, hold_apart):
+    """soft_contact.solve_contact over every contact, colour by colour (its arguments)."""
+    for s in range(rows.shape[0]):
+        solve_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity, moved,
+                      inverse_mass, push_out_speed, use_bias, inverse_h, hold_apart)
+
+
+@numba.njit(error_model='numpy', inline='always')
+def move_pass(moved, velocity, h):
+    """Every member moved by its velocity over h s."""
+    for k in range(velocity.shape[0] - 1):
+        for axis in range(3):
+            moved[k, axis] += h * velocity[k, axis]
+
+
+@numba.njit(error_model='numpy', inline='always')
+def restitution_pass(rows, solve_order, velocity, inverse_mass, threshold, restitution):
+    """soft_contact.restitute_contact over every contact, once a step."""
+    for s in range(rows.shape[0]):
+        restitute_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity,
+                          inverse_mass, threshold, restitution)
 
 
 @numba.njit(error_model='numpy')
