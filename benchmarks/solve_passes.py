@@ -33,6 +33,7 @@ REPEATS = 31
 SCENES = {'resting pile': False, "node_rate's scene": True}  # name: scattered
 # Passes timed per contact; the rest (velocity change, move) per member sphere.
 PER_MEMBER = ('velocity change', 'move')
+WHOLE = "a step's substeps"
 
 
 def prepared(count, seconds, scattered):
@@ -50,12 +51,11 @@ def prepared(count, seconds, scattered):
                                                       reals, wholes)
     _, _, pool, contact, settings = colliding._constants
     memory = [array.copy() for array in colliding._memory]
+    threshold = soft_step.RESTING_FACTOR * np.linalg.norm(colliding.environment.gravity) * dt
     ready = soft_step.contact_rows(contacts, used_real, used_whole, *state, *after,
                                    spheres.mass, spheres.radius, pool, 'contact' in effects,
                                    contact, 'friction' in effects, colliding._identity,
-                                   *memory, settings, dt, reals, wholes)
-    gravity = np.linalg.norm(colliding.environment.gravity)
-    threshold = soft_step.RESTING_FACTOR * gravity * dt
+                                   *memory, settings, threshold, dt, reals, wholes)
     return ready, settings, dt, threshold, contact[0]
 
 
@@ -82,10 +82,10 @@ def pass_times(ready, settings, dt, threshold, restitution):
         'move': lambda rows, velocity, moved: soft_step.move_pass(moved, velocity, h),
         'relax': lambda rows, velocity, moved: solve(rows, velocity, moved, False),
         'restitution': lambda rows, velocity, moved: soft_step.restitution_pass(
-            rows, order, velocity, inverse_mass, threshold, restitution),
+            rows, order, velocity, inverse_mass, threshold, restitution, ready.bounces),
         'solve, no friction': lambda rows, velocity, moved: solve(frictionless, velocity,
                                                                   moved, True),
-        "a step's substeps": lambda rows, velocity, moved: soft_step._substeps(
+        WHOLE: lambda rows, velocity, moved: soft_step._substeps(
             rows, order, velocity, moved, ready.change, inverse_mass, settings, dt, support,
             threshold, supported),
     }
@@ -103,14 +103,15 @@ def table(results):
     """The markdown table of results: [(scene, count, contacts, members, faces, times)]."""
     names = list(results[0][5])
     lines = ['| scene | spheres | contacts (faces) | spheres in contacts | '
-             + ' | '.join(f'{name}, µs (ns each)' for name in names) + ' |',
+             + ' | '.join(f'{name}, µs' + ('' if name == WHOLE else ' (ns each)')
+                          for name in names) + ' |',
              '|---|---:|---:|---:|' + '---:|' * len(names)]
     for scene_name, count, contacts, members, faces, times in results:
         cells = []
         for name in names:
             each = members if name in PER_MEMBER else contacts
             cells.append(f'{times[name]:.0f} ({times[name] * 1e3 / each:.1f})'
-                         if name != "a step's substeps" else f'{times[name]:.0f}')
+                         if name != WHOLE else f'{times[name]:.0f}')
         lines.append(f'| {scene_name} | {count} | {contacts} ({faces}) | {members} | '
                      + ' | '.join(cells) + ' |')
     return '\n'.join(lines)

@@ -105,10 +105,12 @@ def contact_keys(pairs, faces_of, row_of, sphere, identity, total, wholes, used_
 
 @numba.njit(error_model='numpy')
 def fill_rows(rows, slot, ends, contacts, faces_of, state_row, inverse_mass, mass, sphere,
-              faces, contact, has_friction, settings, dt):
+              faces, contact, has_friction, settings, dt, threshold, bounces):
     """Each contact's row (the COLUMNS) at its slot, from the step's start (detection's
     state); impulses zero and the scene's spring (warm_start puts last step's impulses
-    in). inverse_mass: body_rows'."""
+    in). inverse_mass: body_rows'. bounces (contacts,) bool, by slot: whether the contact
+    approached faster than threshold m/s, the restitution pass's first test (it then
+    reads the rows of those only)."""
     found = contacts.pairs.shape[1]
     state = contacts.state
     h = dt / settings[0]
@@ -148,6 +150,7 @@ def fill_rows(rows, slot, ends, contacts, faces_of, state_row, inverse_mass, mas
             rows[s, MU_S], rows[s, MU_K] = mu_s, mu_k + rolling
         rows[s, NX], rows[s, NY], rows[s, NZ] = nx, ny, nz
         rows[s, BIAS_RATE], rows[s, MASS_SCALE], rows[s, IMPULSE_SCALE] = soft
+        bounces[s] = not rows[s, APPROACH] > -threshold  # as restitute_contact tests it
 
 
 @numba.njit(error_model='numpy')

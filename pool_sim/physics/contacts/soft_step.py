@@ -60,15 +60,16 @@ _BEARING = 0.3
 _HOLDING_GAP = 1e-9
 
 Prepared = namedtuple('Prepared', ('rows', 'solve_order', 'velocity', 'moved', 'change',
-                                   'inverse_mass', 'support', 'sphere', 'slot', 'keys',
-                                   'homes', 'by_home'))
+                                   'inverse_mass', 'support', 'bounces', 'sphere', 'slot',
+                                   'keys', 'homes', 'by_home'))
 Prepared.__doc__ = """What a step's substeps solve on (contact_rows), c contacts among m
 member spheres: rows (c, COLUMNS), each slot's contact (soft_contact.py's columns), colour by
 colour; solve_order (c, 2) int64, each slot's two member rows (the ground, row m, for a
 face); velocity, moved, change (m + 1, 4): the members' velocity m/s from the step's start,
 how far each has moved since it (m), the smooth step's velocity change per substep (m/s);
-inverse_mass (m + 1,) 1/kg; support: _support_order's; sphere (m,) int64, each member's
-sphere; slot, keys, homes (c,) int64 and by_home: for remember (soft_rows.py)."""
+inverse_mass (m + 1,) 1/kg; support: _support_order's; bounces (c,) bool: the slots the
+restitution pass looks at (soft_rows.fill_rows); sphere (m,) int64, each member's sphere;
+slot, keys, homes (c,) int64 and by_home: for remember (soft_rows.py)."""
 
 
 @numba.njit(error_model='numpy')
@@ -94,16 +95,16 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     if contacts.pairs.shape[1] == 0:
         memory_held[:] = 0
         return 0
+    threshold = RESTING_FACTOR * resting_speed
     ready = contact_rows(contacts, used_real, used_whole, old_position, old_velocity,
                          position, velocity, mass, radius, faces, has_faces, contact,
                          has_friction, identity, memory_keys, memory_forces, memory_held,
-                         settings, dt, reals, wholes)
-    threshold = RESTING_FACTOR * resting_speed
+                         settings, threshold, dt, reals, wholes)
     supported = np.zeros(ready.sphere.size, dtype=np.bool_)  # _support_sweep's scratch
     _substeps(ready.rows, ready.solve_order, ready.velocity, ready.moved, ready.change,
               ready.inverse_mass, settings, dt, ready.support, threshold, supported)
     restitution_pass(ready.rows, ready.solve_order, ready.velocity, ready.inverse_mass,
-                     threshold, contact[0])
+                     threshold, contact[0], ready.bounces)
     remember(ready.rows, ready.slot, ready.keys, ready.homes, ready.by_home, memory_keys,
              memory_forces, memory_held, settings, dt)
     sphere, moved, velocity_rows = ready.sphere, ready.moved, ready.velocity
@@ -126,10 +127,12 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
 @numba.njit(error_model='numpy')
 def contact_rows(contacts, used_real, used_whole, old_position, old_velocity, position,
                  velocity, mass, radius, faces, has_faces, contact, has_friction, identity,
-                 memory_keys, memory_forces, memory_held, settings, dt, reals, wholes):
+                 memory_keys, memory_forces, memory_held, settings, threshold, dt, reals,
+                 wholes):
     """What the substeps solve on (a Prepared), made from detection's contacts (at least
-    one pair) and the workspace past what detection used (used_real, used_whole); the other
-    arguments as resolve_collisions takes them. Reads last step's memory, writes none."""
+    one pair) and the workspace past what detection used (used_real, used_whole); threshold:
+    the restitution pass's, m/s; the other arguments as resolve_collisions takes them.
+    Reads last step's memory, writes none."""
     count, pairs = radius.size, contacts.pairs
     sphere, row_of, state_row, used_whole = members_of(pairs, contacts.order, count, wholes,
                                                        used_whole)
@@ -146,8 +149,9 @@ def contact_rows(contacts, used_real, used_whole, old_position, old_velocity, po
     slot, _ = colour_contacts(ends, members, wholes, used_whole)
     velocity_rows, moved, change, inverse_mass = body_rows(sphere, state_row, state, mass,
                                                            settings, reals, used_real)
+    bounces = np.empty(total, dtype=np.bool_)
     fill_rows(rows, slot, ends, contacts, faces_of, state_row, inverse_mass, mass, sphere,
-              faces, contact, has_friction, settings, dt)
+              faces, contact, has_friction, settings, dt, threshold, bounces)
     warm_start(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memory_held,
                ends, sphere, radius, settings, dt)
     bound_face_crossings(change, faces_of, sphere, old_position, old_velocity, position,
@@ -158,7 +162,7 @@ def contact_rows(contacts, used_real, used_whole, old_position, old_velocity, po
     support = _support_order(rows, ends[:pairs.shape[1]], faces_of, slot, sphere,
                              old_position, radius)
     return Prepared(rows, solve_order, velocity_rows, moved, change, inverse_mass, support,
-                    sphere, slot, keys, homes, by_home)
+                    bounces, sphere, slot, keys, homes, by_home)
 
 
 @numba.njit(error_model='numpy')
@@ -224,11 +228,14 @@ def move_pass(moved, velocity, h):
 
 
 @numba.njit(error_model='numpy', inline='always')
-def restitution_pass(rows, solve_order, velocity, inverse_mass, threshold, restitution):
-    """soft_contact.restitute_contact over every contact, once a step."""
+def restitution_pass(rows, solve_order, velocity, inverse_mass, threshold, restitution,
+                     bounces):
+    """soft_contact.restitute_contact over the contacts that may bounce (bounces, by slot:
+    a resting pile's rows, none of which bounce, are not read), once a step."""
     for s in range(rows.shape[0]):
-        restitute_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity,
-                          inverse_mass, threshold, restitution)
+        if bounces[s]:
+            restitute_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity,
+                              inverse_mass, threshold, restitution)
 
 
 @numba.njit(error_model='numpy')
