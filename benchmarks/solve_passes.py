@@ -11,12 +11,17 @@ with soft_step for --seconds. From that state, as the step would: detection, the
 soft_step.contact_rows (the contacts' rows, warm-started from the memory the last step
 left, the members' velocities). Then, in turns, each pass on fresh copies of the rows and
 velocities, the median of REPEATS: the velocity change, the carried impulses, the solve (the
-spring's bias on), the support sweep, the move, the relax (bias off), the restitution pass;
-the solve again with friction off (every row's mu_s 0: how much of it friction takes); and
-the whole of one step's substeps. One thread. A step runs `substeps` of each pass but the
-restitution, which runs once.
+spring's bias on), the support sweep, the move, the relax (bias off; a contact still apart
+held, as in every substep but the last); the solve again with friction off (every row's
+mu_s 0: how much of it friction takes); the whole of one step's substeps; and, on the rows
+and velocities those substeps leave, the restitution pass as the step runs it (the rows
+marked to bounce) and reading every row (all marked; the same numbers). One thread. A step
+runs `substeps` of each pass but the restitution, which runs once. Each pass is timed as a
+function compiled on its own; in the step they are inlined into one loop
+(benchmarks/compare_commits times the whole step).
 """
 import argparse
+import math
 import statistics
 import time
 
@@ -38,11 +43,13 @@ WHOLE = "a step's substeps"
 
 def prepared(count, seconds, scattered):
     """(soft_step.Prepared, settings, dt s, threshold m/s, restitution) of a soft_step
-    scene's state after `seconds` (its memory copied as its last step left it)."""
+    scene's state after `seconds`, its memory as its last step left it; the arguments of
+    contact_rows as physics/stepper.py's run_steps passes them."""
     colliding = Simulation(scene(count, 'soft_step', True, 1500.0, None, scattered))
     smooth = Simulation(scene(count, 'soft_step', False, 1500.0, None, scattered))
     dt = colliding.max_step
     colliding.run(int(round(seconds / dt)), dt)
+    memory = [array.copy() for array in colliding._memory]  # contacts_of steps it again
     smooth.spheres.position[:] = colliding.spheres.position
     smooth.spheres.velocity[:] = colliding.spheres.velocity
     _, _, (state, after, reals, wholes), _ = contacts_of(colliding, smooth)
@@ -50,12 +57,13 @@ def prepared(count, seconds, scattered):
     contacts, used_real, used_whole = detect_contacts(*state, *after, spheres.radius, dt,
                                                       reals, wholes)
     _, _, pool, contact, settings = colliding._constants
-    memory = [array.copy() for array in colliding._memory]
-    threshold = soft_step.RESTING_FACTOR * np.linalg.norm(colliding.environment.gravity) * dt
+    gx, gy, gz = colliding.environment.gravity  # the stepper's resting speed, |g| dt
+    threshold = soft_step.RESTING_FACTOR * math.sqrt(gx * gx + gy * gy + gz * gz) * dt
     ready = soft_step.contact_rows(contacts, used_real, used_whole, *state, *after,
-                                   spheres.mass, spheres.radius, pool, 'contact' in effects,
-                                   contact, 'friction' in effects, colliding._identity,
-                                   *memory, settings, threshold, dt, reals, wholes)
+                                   spheres.mass, spheres.radius, tuple(pool),
+                                   'contact' in effects, tuple(contact),
+                                   'friction' in effects, colliding._identity, *memory,
+                                   settings, threshold, dt, reals, wholes)
     return ready, settings, dt, threshold, contact[0]
 
 
@@ -67,32 +75,46 @@ def pass_times(ready, settings, dt, threshold, restitution):
     supported = np.zeros(ready.sphere.size, dtype=np.bool_)
     frictionless = ready.rows.copy()
     frictionless[:, MU_S] = 0.0
+    # Where the substeps leave the rows and velocities: the restitution pass's start.
+    solved, solved_velocity = ready.rows.copy(), ready.velocity.copy()
+    soft_step._substeps(solved, order, solved_velocity, ready.moved.copy(), ready.change,
+                        inverse_mass, settings, dt, support, threshold, supported)
+    every_row = np.ones_like(ready.bounces)
 
     def solve(rows, velocity, moved, bias):
         soft_step.solve_pass(rows, order, velocity, moved, inverse_mass, push_out_speed, bias,
                              inverse_h, True)
-    passes = {
-        'velocity change': lambda rows, velocity, moved: soft_step.change_pass(
-            velocity, ready.change),
-        'carried impulses': lambda rows, velocity, moved: soft_step.carried_pass(
-            rows, order, velocity, inverse_mass),
-        'solve': lambda rows, velocity, moved: solve(rows, velocity, moved, True),
-        'support sweep': lambda rows, velocity, moved: soft_step._support_sweep(
-            *support, velocity, moved, inverse_h, threshold, supported),
-        'move': lambda rows, velocity, moved: soft_step.move_pass(moved, velocity, h),
-        'relax': lambda rows, velocity, moved: solve(rows, velocity, moved, False),
-        'restitution': lambda rows, velocity, moved: soft_step.restitution_pass(
-            rows, order, velocity, inverse_mass, threshold, restitution, ready.bounces),
-        'solve, no friction': lambda rows, velocity, moved: solve(frictionless, velocity,
-                                                                  moved, True),
-        WHOLE: lambda rows, velocity, moved: soft_step._substeps(
+
+    def restitute(rows, velocity, bounces):
+        soft_step.restitution_pass(rows, order, velocity, inverse_mass, threshold,
+                                   restitution, bounces)
+    start = (ready.rows, ready.velocity)
+    passes = {  # name: (the rows and velocities it starts from, the pass)
+        'velocity change': (start, lambda rows, velocity, moved: soft_step.change_pass(
+            velocity, ready.change)),
+        'carried impulses': (start, lambda rows, velocity, moved: soft_step.carried_pass(
+            rows, order, velocity, inverse_mass)),
+        'solve': (start, lambda rows, velocity, moved: solve(rows, velocity, moved, True)),
+        'support sweep': (start, lambda rows, velocity, moved: soft_step._support_sweep(
+            *support, velocity, moved, inverse_h, threshold, supported)),
+        'move': (start, lambda rows, velocity, moved: soft_step.move_pass(moved, velocity, h)),
+        'relax': (start, lambda rows, velocity, moved: solve(rows, velocity, moved, False)),
+        'solve, no friction': ((frictionless, ready.velocity),
+                               lambda rows, velocity, moved: solve(rows, velocity, moved,
+                                                                   True)),
+        WHOLE: (start, lambda rows, velocity, moved: soft_step._substeps(
             rows, order, velocity, moved, ready.change, inverse_mass, settings, dt, support,
-            threshold, supported),
+            threshold, supported)),
+        'restitution': ((solved, solved_velocity), lambda rows, velocity, moved: restitute(
+            rows, velocity, ready.bounces)),
+        'restitution, every row read': ((solved, solved_velocity),
+                                        lambda rows, velocity, moved: restitute(
+                                            rows, velocity, every_row)),
     }
     times = {name: [] for name in passes}
     for _ in range(REPEATS):
-        for name, run_pass in passes.items():
-            rows, velocity, moved = ready.rows.copy(), ready.velocity.copy(), ready.moved.copy()
+        for name, ((rows_from, velocity_from), run_pass) in passes.items():
+            rows, velocity, moved = rows_from.copy(), velocity_from.copy(), ready.moved.copy()
             began = time.perf_counter()
             run_pass(rows, velocity, moved)
             times[name].append(time.perf_counter() - began)

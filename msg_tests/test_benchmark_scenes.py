@@ -80,8 +80,19 @@ def test_solve_passes_times_the_passes_a_step_runs(monkeypatch):
                                          threshold, supported)
     for ours, theirs in ((rows, one_by_one), (velocity, velocity_too), (moved, moved_too)):
         assert np.array_equal(ours, theirs)
+    # The restitution pass reads the rows marked to bounce only, with the numbers it made
+    # reading every row.
+    assert 0 < ready.bounces.sum() < ready.bounces.size
+    marked, everything = (rows.copy(), velocity.copy()), (rows.copy(), velocity.copy())
+    for (restituted, restituted_velocity), bounces in ((marked, ready.bounces),
+                                                        (everything, np.ones_like(ready.bounces))):
+        soft_step.restitution_pass(restituted, ready.solve_order, restituted_velocity,
+                                   ready.inverse_mass, threshold, restitution, bounces)
+    assert np.array_equal(marked[0], everything[0]) and np.array_equal(marked[1], everything[1])
+    assert not np.array_equal(marked[1], velocity)  # some bounced
     monkeypatch.setattr(solve_passes, 'REPEATS', 1)
     times = solve_passes.pass_times(ready, settings, dt, threshold, restitution)
     assert all(np.isfinite(value) and value > 0.0 for value in times.values())
     table = solve_passes.table([('resting pile', 1000, ready.rows.shape[0], members, 1, times)])
     assert table.count('\n') == 2 and "a step's substeps" in table
+    assert 'restitution, every row read' in table

@@ -108,9 +108,10 @@ def fill_rows(rows, slot, ends, contacts, faces_of, state_row, inverse_mass, mas
               faces, contact, has_friction, settings, dt, threshold, bounces):
     """Each contact's row (the COLUMNS) at its slot, from the step's start (detection's
     state); impulses zero and the scene's spring (warm_start puts last step's impulses
-    in). inverse_mass: body_rows'. bounces (contacts,) bool, by slot: whether the contact
-    approached faster than threshold m/s, the restitution pass's first test (it then
-    reads the rows of those only)."""
+    in). inverse_mass: body_rows'. bounces (contacts,) bool, by slot: whether the
+    restitution pass looks at the contact (soft_contact.restitute_contact's first test, on
+    its approach: faster than threshold m/s, or not a number), so that it reads those
+    rows only."""
     found = contacts.pairs.shape[1]
     state = contacts.state
     h = dt / settings[0]

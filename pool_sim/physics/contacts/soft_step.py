@@ -186,7 +186,7 @@ def _substeps(rows, solve_order, velocity, moved, change, inverse_mass, settings
                    inverse_h, substep < substeps - 1)
 
 
-# The passes of a substep, each over every member or contact (solve_order: each row's two
+# The passes of a step, each over its members or contacts (solve_order: each row's two
 # member rows, the ground last): functions of their own so that benchmarks/solve_passes.py
 # times the code the solver runs; inlined, as the loops they were.
 @numba.njit(error_model='numpy', inline='always')
