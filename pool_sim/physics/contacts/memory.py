@@ -58,4 +58,3 @@ def matched(keys, homes, memory_keys, memory_held):
     for c in range(keys.size):
         found += remembered_slot(memory_keys, memory_held, homes[c], keys[c]) >= 0
     return found
-

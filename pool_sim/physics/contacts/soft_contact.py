@@ -96,13 +96,20 @@ def solve_contact(rows, s, a, b, velocity, moved, inverse_mass, push_out_speed, 
 
 
 @numba.njit(error_model='numpy', inline='always')
+def may_bounce(rows, s, threshold):
+    """Whether contact s approached at the step's start faster than threshold m/s (or by
+    no number): restitute_contact's first test, which soft_rows.fill_rows marks ahead."""
+    return not rows[s, APPROACH] > -threshold
+
+
+@numba.njit(error_model='numpy', inline='always')
 def restitute_contact(rows, s, a, b, velocity, inverse_mass, threshold, restitution):
     """The restitution pass for one contact (see solve_contact for the arguments): one that
     pushed while touching and approached faster than threshold m/s leaves at restitution x
     that."""
-    approach = rows[s, APPROACH]
-    if approach > -threshold or rows[s, MOST] == 0.0:
+    if not may_bounce(rows, s, threshold) or rows[s, MOST] == 0.0:
         return
+    approach = rows[s, APPROACH]
     nx, ny, nz = rows[s, NX], rows[s, NY], rows[s, NZ]
     speed = ((velocity[a, 0] - velocity[b, 0]) * nx + (velocity[a, 1] - velocity[b, 1]) * ny
              + (velocity[a, 2] - velocity[b, 2]) * nz)

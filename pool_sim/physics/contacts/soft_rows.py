@@ -17,7 +17,7 @@ from .detection import take, END_POSITION, END_VELOCITY, RADIUS, START_POSITION,
     START_VELOCITY
 from .memory import CONTACTS_PER_SPHERE, remembered_slot
 from .soft_contact import APPROACH, BIAS_RATE, FX, FY, FZ, GAP, IMPULSE_SCALE, MASS, \
-    MASS_SCALE, MU_K, MU_S, NORMAL, NX, NY, NZ, soft_coefficients
+    MASS_SCALE, MU_K, MU_S, NORMAL, NX, NY, NZ, may_bounce, soft_coefficients
 
 # The contact's own frequency is held below this fraction of the substep rate (Box2D's
 # quarter): stiffer than that an implicit spring only rings.
@@ -151,7 +151,7 @@ def fill_rows(rows, slot, ends, contacts, faces_of, state_row, inverse_mass, mas
             rows[s, MU_S], rows[s, MU_K] = mu_s, mu_k + rolling
         rows[s, NX], rows[s, NY], rows[s, NZ] = nx, ny, nz
         rows[s, BIAS_RATE], rows[s, MASS_SCALE], rows[s, IMPULSE_SCALE] = soft
-        bounces[s] = not rows[s, APPROACH] > -threshold  # as restitute_contact tests it
+        bounces[s] = may_bounce(rows, s, threshold)
 
 
 @numba.njit(error_model='numpy')
