@@ -18,7 +18,9 @@ What it measures, every figure a median:
 - the CPU step of the same spheres on one core and on every core (numba's threads), for the
   ratio, where its arrays fit the host (sizes up to CPU_MAX_SPHERES);
 - CPU-GPU agreement: the same scene stepped by Simulation on both backends, the largest
-  difference in position after AGREEMENT_STEPS steps.
+  difference in position after AGREEMENT_STEPS steps;
+- the soft step's solve stage, at rest and landing, at --solve-sizes (benchmarks/gpu_solve.py:
+  its section of gpu.md, and gpu_solve.csv).
 """
 import argparse
 import os
@@ -30,6 +32,7 @@ import types
 import numba
 import numpy as np
 
+from benchmarks import gpu_solve
 from benchmarks.common import provenance, write_csv
 from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, Spheres, stepper
 from pool_sim.physics.cuda import load_cuda, simulated
@@ -171,6 +174,9 @@ def main():
     parser.add_argument('--agreement-steps', type=int, default=AGREEMENT_STEPS)
     parser.add_argument('--launch-spheres', type=int, default=10_000)
     parser.add_argument('--repeats', type=int, default=21, help='of each one-step timing')
+    parser.add_argument('--solve-sizes', type=int, nargs='*',
+                        default=[100_000, 1_000_000, 10_000_000])
+    parser.add_argument('--solve-repeats', type=int, default=11)
     parser.add_argument('--out', default='results/gpu')
     arguments = parser.parse_args()
     cuda = load_cuda()
@@ -187,14 +193,19 @@ def main():
     print(launches, flush=True)
     position_gap, velocity_gap = agreement(arguments.agreement_spheres,
                                            arguments.agreement_steps)
+    solve_rows, solve_text = ([], '') if not arguments.solve_sizes else gpu_solve.measure(
+        arguments.solve_sizes, arguments.solve_repeats, gpu_solve.CPU_MAX)
     out = pathlib.Path(arguments.out)
     out.mkdir(parents=True, exist_ok=True)
     write_csv(rows, out / 'gpu.csv')
+    if solve_rows:
+        write_csv(solve_rows, out / 'gpu_solve.csv')
     columns = list(rows[0]) + [c for c in ('cpu_one_core_ns', 'cpu_all_cores_ns')
                                if c not in rows[0]]
     text = '\n\n'.join([
         provenance('python3 -m benchmarks.gpu --sizes '
-                   + ' '.join(map(str, arguments.sizes))) + f' GPU: {device}.',
+                   + ' '.join(map(str, arguments.sizes)) + ' --solve-sizes '
+                   + ' '.join(map(str, arguments.solve_sizes))) + f' GPU: {device}.',
         f'The default effects ({", ".join(DEFAULT_EFFECTS)}), no collisions; dt {DT} s; '
         'ns per sphere-step, medians. gigabytes_per_s: what the one-step launch reads and '
         f'writes ({BYTES_PER_SPHERE_STEP} B a sphere) over its time.',
@@ -204,7 +215,7 @@ def main():
         table(launches, ['launch', 'us']),
         f'CPU-GPU agreement: {arguments.agreement_spheres} spheres, '
         f'{arguments.agreement_steps} steps: largest difference {position_gap:.3g} m in '
-        f'position, {velocity_gap:.3g} m/s in velocity.'])
+        f'position, {velocity_gap:.3g} m/s in velocity.', solve_text]).strip()
     (out / 'gpu.md').write_text(text + '\n')
     print(text)
 

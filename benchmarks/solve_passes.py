@@ -42,11 +42,19 @@ WHOLE = "a step's substeps"
 
 
 def prepared(count, seconds, scattered):
+    """prepared_from a resting pile or node_rate's scene (scattered) of count spheres."""
+    return prepared_from(scene(count, 'soft_step', True, 1500.0, None, scattered), seconds)
+
+
+def prepared_from(colliding_scene, seconds, initial_spheres=None):
     """(soft_step.Prepared, settings, dt s, threshold m/s, restitution) of a soft_step
-    scene's state after `seconds`, its memory as its last step left it; the arguments of
-    contact_rows as physics/stepper.py's run_steps passes them."""
-    colliding = Simulation(scene(count, 'soft_step', True, 1500.0, None, scattered))
-    smooth = Simulation(scene(count, 'soft_step', False, 1500.0, None, scattered))
+    scene's state (its spheres, or initial_spheres) after `seconds`, its memory as its last
+    step left it; the arguments of contact_rows as physics/stepper.py's run_steps passes
+    them."""
+    effects = [name for name in colliding_scene['effects'] if name != 'collisions']
+    colliding = Simulation(colliding_scene, initial_spheres=initial_spheres)
+    smooth = Simulation(colliding_scene.with_values(effects=effects),
+                        initial_spheres=initial_spheres)
     dt = colliding.max_step
     colliding.run(int(round(seconds / dt)), dt)
     memory = [array.copy() for array in colliding._memory]  # contacts_of steps it again

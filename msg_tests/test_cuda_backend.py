@@ -193,7 +193,8 @@ def test_the_gpu_benchmark_runs_in_the_simulator_and_writes_its_tables(tmp_path)
     child = subprocess.run(
         [sys.executable, '-m', 'benchmarks.gpu', '--sizes', '16', '40', '--repeats', '1',
          '--launch-spheres', '8', '--agreement-spheres', '12', '--agreement-steps', '4',
-         '--out', str(tmp_path)], cwd=ROOT, env=simulator_environment(),
+         '--solve-sizes', '12', '--solve-repeats', '1', '--out', str(tmp_path)], cwd=ROOT,
+        env=simulator_environment(),
         capture_output=True, text=True, timeout=300)
     assert child.returncode == 0, child.stderr[-4000:]
     text = (tmp_path / 'gpu.md').read_text()
@@ -202,3 +203,15 @@ def test_the_gpu_benchmark_runs_in_the_simulator_and_writes_its_tables(tmp_path)
     assert 'largest difference 0 m in position, 0 m/s in velocity' in text
     rows = (tmp_path / 'gpu.csv').read_text().splitlines()
     assert len(rows) == 3 and rows[0].startswith('spheres,one_step_per_launch_ns')
+    # The solve stage: both scenes, both modes, the CPU's numbers to the bit (a simulator
+    # does not fuse multiplies and adds).
+    assert "## The soft step's solve stage" in text
+    solve = (tmp_path / 'gpu_solve.csv').read_text().splitlines()
+    assert len(solve) == 3 and solve[1].startswith('at rest,12,') and solve[2].startswith(
+        'landing,12,')
+    header = solve[0].split(',')
+    for line in solve[1:]:
+        row = dict(zip(header, line.split(',')))
+        assert int(row['contacts']) > 12 and float(row['cooperative_ms']) > 0.0
+        assert all(float(row[f'{mode}_{what}_gap']) == 0.0 for mode in ('launches',
+                   'cooperative') for what in ('velocity', 'moved'))

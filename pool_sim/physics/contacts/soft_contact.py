@@ -1,5 +1,6 @@
 """The soft step's per-contact functions: soft_step.py sweeps them over its contacts,
-colour by colour, and a GPU kernel would call them one thread a contact. Each reads and
+colour by colour, and the GPU's kernels (physics/cuda/contact_kernels.py) call them one
+thread a contact. Each reads and
 writes one contact's row of facts and the velocities of its two spheres, nothing else."""
 import math
 
@@ -93,6 +94,18 @@ def solve_contact(rows, s, a, b, velocity, moved, inverse_mass, push_out_speed, 
     velocity[b, 0] -= wb * fx
     velocity[b, 1] -= wb * fy
     velocity[b, 2] -= wb * fz
+
+
+@numba.njit(error_model='numpy', inline='always')
+def carry_contact(rows, s, a, b, velocity, inverse_mass):
+    """One contact's accumulated impulses (normal and friction, N s) applied to its two
+    spheres (see solve_contact for the arguments): a substep's warm start."""
+    normal = rows[s, NORMAL]
+    wa, wb = inverse_mass[a], inverse_mass[b]
+    for axis in range(3):
+        impulse = normal * rows[s, NX + axis] + rows[s, FX + axis]
+        velocity[a, axis] += wa * impulse
+        velocity[b, axis] -= wb * impulse
 
 
 @numba.njit(error_model='numpy', inline='always')

@@ -41,7 +41,8 @@ from ..kernels.step_guard import finite, put_back
 from .colouring import colour_contacts
 from .layers import bottom_up_order
 from .face_crossing import bound_face_crossings
-from .soft_contact import COLUMNS, FX, GAP, NORMAL, NX, NY, NZ, restitute_contact, solve_contact
+from .soft_contact import COLUMNS, GAP, NX, NY, NZ, carry_contact, restitute_contact, \
+    solve_contact
 from .soft_rows import body_rows, contact_keys, face_contacts, fill_rows, members_of, \
     remember, warm_start
 from .detection import counting_sort, detect_contacts, take
@@ -61,7 +62,7 @@ _HOLDING_GAP = 1e-9
 
 Prepared = namedtuple('Prepared', ('rows', 'solve_order', 'velocity', 'moved', 'change',
                                    'inverse_mass', 'support', 'bounces', 'sphere', 'slot',
-                                   'keys', 'homes', 'by_home'))
+                                   'keys', 'homes', 'by_home', 'colour_start'))
 Prepared.__doc__ = """What a step's substeps solve on (contact_rows), c contacts among m
 member spheres: rows (c, COLUMNS), each slot's contact (soft_contact.py's columns), colour by
 colour; solve_order (c, 2) int64, each slot's two member rows (the ground, row m, for a
@@ -69,7 +70,9 @@ face); velocity, moved, change (m + 1, 4): the members' velocity m/s from the st
 how far each has moved since it (m), the smooth step's velocity change per substep (m/s);
 inverse_mass (m + 1,) 1/kg; support: _support_order's; bounces (c,) bool: the slots the
 restitution pass looks at (soft_rows.fill_rows); sphere (m,) int64, each member's sphere;
-slot, keys, homes (c,) int64 and by_home: for remember (soft_rows.py)."""
+slot, keys, homes (c,) int64 and by_home: for remember (soft_rows.py); colour_start
+(colouring.COLOURS + 1,) int64: where each colour's slots begin (the last colour's
+contacts may share a sphere: swept in order)."""
 
 
 @numba.njit(error_model='numpy')
@@ -146,7 +149,7 @@ def contact_rows(contacts, used_real, used_whole, old_position, old_velocity, po
     by_home, _, used_whole = counting_sort(homes, count, wholes, used_whole)
     rows, used_real = take(reals, used_real, COLUMNS * total)
     rows = rows.reshape((total, COLUMNS))
-    slot, _ = colour_contacts(ends, members, wholes, used_whole)
+    slot, colour_start = colour_contacts(ends, members, wholes, used_whole)
     velocity_rows, moved, change, inverse_mass = body_rows(sphere, state_row, state, mass,
                                                            settings, reals, used_real)
     bounces = np.empty(total, dtype=np.bool_)
@@ -162,7 +165,7 @@ def contact_rows(contacts, used_real, used_whole, old_position, old_velocity, po
     support = _support_order(rows, ends[:pairs.shape[1]], faces_of, slot, sphere,
                              old_position, radius)
     return Prepared(rows, solve_order, velocity_rows, moved, change, inverse_mass, support,
-                    bounces, sphere, slot, keys, homes, by_home)
+                    bounces, sphere, slot, keys, homes, by_home, colour_start)
 
 
 @numba.njit(error_model='numpy')
@@ -193,21 +196,21 @@ def _substeps(rows, solve_order, velocity, moved, change, inverse_mass, settings
 def change_pass(velocity, change):
     """The smooth step's velocity change, a substep's share (change), into velocity."""
     for k in range(velocity.shape[0] - 1):
-        for axis in range(3):
-            velocity[k, axis] += change[k, axis]
+        change_member(velocity, change, k)
+
+
+@numba.njit(error_model='numpy', inline='always')
+def change_member(velocity, change, k):
+    """change_pass for member k (a GPU thread's share)."""
+    for axis in range(3):
+        velocity[k, axis] += change[k, axis]
 
 
 @numba.njit(error_model='numpy', inline='always')
 def carried_pass(rows, solve_order, velocity, inverse_mass):
-    """Each contact's accumulated impulses (normal and friction) applied to its spheres."""
+    """soft_contact.carry_contact over every contact: their accumulated impulses."""
     for s in range(rows.shape[0]):
-        a, b = solve_order[s, 0], solve_order[s, 1]
-        normal = rows[s, NORMAL]
-        wa, wb = inverse_mass[a], inverse_mass[b]
-        for axis in range(3):
-            impulse = normal * rows[s, NX + axis] + rows[s, FX + axis]
-            velocity[a, axis] += wa * impulse
-            velocity[b, axis] -= wb * impulse
+        carry_contact(rows, s, solve_order[s, 0], solve_order[s, 1], velocity, inverse_mass)
 
 
 @numba.njit(error_model='numpy', inline='always')
@@ -223,8 +226,14 @@ def solve_pass(rows, solve_order, velocity, moved, inverse_mass, push_out_speed,
 def move_pass(moved, velocity, h):
     """Every member moved by its velocity over h s."""
     for k in range(velocity.shape[0] - 1):
-        for axis in range(3):
-            moved[k, axis] += h * velocity[k, axis]
+        move_member(moved, velocity, h, k)
+
+
+@numba.njit(error_model='numpy', inline='always')
+def move_member(moved, velocity, h, k):
+    """move_pass for member k (a GPU thread's share)."""
+    for axis in range(3):
+        moved[k, axis] += h * velocity[k, axis]
 
 
 @numba.njit(error_model='numpy', inline='always')
@@ -297,9 +306,30 @@ def _support_sweep(ends, facts, floor_member, floor_gap, velocity, moved, invers
     steps, 69 % of a radius deep."""
     fastest = 0.0
     for k in range(supported.size):
-        fastest = max(fastest, velocity[k, 0] ** 2 + velocity[k, 1] ** 2 + velocity[k, 2] ** 2)
-    if 4.0 * fastest <= threshold * threshold:
-        return  # no pair can approach faster than threshold: a pile at rest
+        fastest = max(fastest, speed_squared(velocity, k))
+    if may_land(fastest, threshold):
+        hold_up(ends, facts, floor_member, floor_gap, velocity, moved, inverse_h, threshold,
+                supported)
+
+
+@numba.njit(error_model='numpy', inline='always')
+def speed_squared(velocity, k):
+    """Member k's speed squared, (m/s)^2: the support sweep's first test takes the most."""
+    return velocity[k, 0] ** 2 + velocity[k, 1] ** 2 + velocity[k, 2] ** 2
+
+
+@numba.njit(error_model='numpy', inline='always')
+def may_land(fastest, threshold):
+    """Whether a pair may approach faster than threshold m/s, its members' largest speed
+    squared fastest (m/s)^2: if not, a pile at rest, which the sweep leaves alone."""
+    return 4.0 * fastest > threshold * threshold
+
+
+@numba.njit(error_model='numpy', inline='always')
+def hold_up(ends, facts, floor_member, floor_gap, velocity, moved, inverse_h, threshold,
+            supported):
+    """_support_sweep's sweep bottom up, once may_land (its arguments; serial: a contact
+    is held up only by one below it, swept before it)."""
     supported[:] = False
     for f in range(floor_member.size):
         k = floor_member[f]

@@ -1,0 +1,192 @@
+"""The soft step's solve stage on the GPU (physics/cuda/device_solve.py) against the CPU's:
+a step's substeps and restitution pass on the rows soft_step.contact_rows makes, at rest
+and landing, by size. benchmarks/gpu.py runs it (--solve-sizes); alone:
+
+    python3 -m benchmarks.gpu_solve [--sizes 100000 1000000 10000000] [--out results/gpu]
+
+The scene: equal spheres (radius RADIUS, density DENSITY) on a square lattice, touching, in
+layers from the default pool's floor up, with the default effects and `collisions`
+(soft_step); at rest, or landing (layer k falling at (k + 1) x LANDING_SPEED, so that every
+layer closes on the one below and the bottom one on the floor). From that state, as the
+step would: detection and contact_rows (on the CPU, not timed: they have no GPU form yet).
+Then, every figure a median of --repeats, each from the same rows (copied on the device):
+the GPU's solve in each of DeviceSolve's modes (a launch per pass and colour, or one
+cooperative launch) and the CPU's (soft_step._substeps and restitution_pass, one thread, up
+to --cpu-max spheres), and how far the GPU's velocities and moves are from the CPU's.
+"""
+import argparse
+import pathlib
+import statistics
+import time
+
+import numpy as np
+
+from benchmarks.common import provenance, write_csv
+from benchmarks.solve_passes import prepared_from
+from pool_sim.physics import DEFAULT_EFFECTS, Scene, Spheres
+from pool_sim.physics.contacts import soft_step
+from pool_sim.physics.cuda.device_solve import DeviceSolve, MODES, colour_bounds
+
+RADIUS = 0.01  # m
+DENSITY = 2000.0  # kg/m^3
+LANDING_SPEED = 0.5  # m/s, the closing speed of each layer on the one below
+SCENES = ('at rest', 'landing')
+CPU_MAX = 1_000_000  # spheres: the CPU's solve is timed up to this many
+POOL_SIDE = 8.0  # m: the default pool's floor is 8 m square
+
+
+def pile(count, landing):
+    """count spheres on the lattice (see the module's docstring), a Spheres."""
+    side = int(POOL_SIDE / (2.0 * RADIUS))
+    index = np.arange(count)
+    layer = index // (side * side)
+    position = np.stack([-4.0 + RADIUS + 2.0 * RADIUS * (index % side),
+                         -4.0 + RADIUS + 2.0 * RADIUS * (index // side % side),
+                         -4.0 + RADIUS + 2.0 * RADIUS * layer])
+    velocity = np.zeros((3, count))
+    if landing:
+        velocity[2] = -LANDING_SPEED * (layer + 1)
+    radius = np.full(count, RADIUS)
+    lift_normal = np.zeros((3, count))
+    lift_normal[2] = 1.0
+    return Spheres([f's{i}' for i in range(count)], position=position, velocity=velocity,
+                   mass=DENSITY * 4.0 / 3.0 * np.pi * radius**3, radius=radius,
+                   drag_coefficient=np.full(count, 0.47), lift_area=np.pi * radius**2,
+                   lift_normal=lift_normal, lift_coefficient=np.zeros(count),
+                   external_force=np.zeros((3, count)))
+
+
+def prepared_pile(count, landing):
+    """(soft_step.Prepared, settings, dt, threshold, restitution) of the pile's first step."""
+    scene = Scene({'sphere_names': ['s0'], 'contact_solver': 'soft_step',
+                   'effects': [*DEFAULT_EFFECTS, 'collisions']})
+    return prepared_from(scene, 0.0, initial_spheres=pile(count, landing))
+
+
+def median_of(function, repeats):
+    """Median seconds of function() over repeats calls, each after prepare() (untimed)."""
+    prepare, run = function
+    samples = []
+    for _ in range(repeats):
+        prepare()
+        start = time.perf_counter()
+        run()
+        samples.append(time.perf_counter() - start)
+    return statistics.median(samples)
+
+
+def gpu_timing(ready, mode, scalars, repeats):
+    """(median seconds of mode's solve, what it leaves: rows, velocity, moved)."""
+    solver = DeviceSolve(mode)
+    pristine, arrays = solver.upload(ready), solver.upload(ready)
+
+    def prepare():
+        for name, array in pristine.items():
+            arrays[name].copy_to_device(array)
+        solver.cuda.synchronize()
+
+    def run():
+        solver.solve(arrays, ready.colour_start, *scalars)
+        solver.cuda.synchronize()
+    run()  # compiles
+    seconds = median_of((prepare, run), repeats)
+    prepare()
+    run()
+    return seconds, tuple(arrays[name].copy_to_host() for name in ('rows', 'velocity',
+                                                                    'moved'))
+
+
+def cpu_timing(ready, scalars, repeats):
+    """(median seconds of the CPU's substeps and restitution pass, what they leave)."""
+    settings, dt, threshold, restitution = scalars
+    supported = np.zeros(ready.sphere.size, dtype=np.bool_)
+    state = {}
+
+    def prepare():
+        state.update(rows=ready.rows.copy(), velocity=ready.velocity.copy(),
+                     moved=ready.moved.copy())
+
+    def run():
+        soft_step._substeps(state['rows'], ready.solve_order, state['velocity'],
+                            state['moved'], ready.change, ready.inverse_mass, settings, dt,
+                            ready.support, threshold, supported)
+        soft_step.restitution_pass(state['rows'], ready.solve_order, state['velocity'],
+                                   ready.inverse_mass, threshold, restitution, ready.bounces)
+    prepare()
+    run()  # compiles
+    seconds = median_of((prepare, run), repeats)
+    prepare()
+    run()
+    return seconds, (state['rows'], state['velocity'], state['moved'])
+
+
+def solve_row(count, landing, repeats, cpu_max):
+    """The figures of one scene at one size (a dict: the CSV's row)."""
+    ready, *scalars = prepared_pile(count, landing)
+    bounds, serial = colour_bounds(ready.colour_start)
+    row = {'scene': SCENES[landing], 'spheres': count, 'contacts': ready.rows.shape[0],
+           'colours': bounds.size - 1, 'serial_colour': serial >= 0}
+    if not ready.rows.shape[0]:
+        return row
+    results = {}
+    for mode in MODES:
+        seconds, results[mode] = gpu_timing(ready, mode, scalars, repeats)
+        row[f'{mode}_ms'] = seconds * 1e3
+        row[f'{mode}_ns_per_sphere'] = seconds / count * 1e9
+    if count <= cpu_max:
+        seconds, on_cpu = cpu_timing(ready, scalars, max(1, repeats // 4))
+        row['cpu_one_core_ms'] = seconds * 1e3
+        for mode in MODES:
+            row[f'{mode}_velocity_gap'] = float(np.max(np.abs(results[mode][1] - on_cpu[1])))
+            row[f'{mode}_moved_gap'] = float(np.max(np.abs(results[mode][2] - on_cpu[2])))
+    return row
+
+
+def table(rows):
+    """The markdown table of solve_row's rows (floats to 4 significant figures)."""
+    columns = [c for c in rows[0]] + sorted({c for row in rows for c in row} - set(rows[0]))
+    shown = [[f'{row[c]:.4g}' if isinstance(row.get(c), float) else str(row.get(c, '-'))
+              for c in columns] for row in rows]
+    return '\n'.join(['| ' + ' | '.join(columns) + ' |', '|' + '---:|' * len(columns)]
+                     + ['| ' + ' | '.join(r) + ' |' for r in shown])
+
+
+def measure(sizes, repeats, cpu_max):
+    """(rows, the section of gpu.md they make)."""
+    rows = []
+    for count in sizes:
+        for landing in (False, True):
+            rows.append(solve_row(count, landing, repeats, cpu_max))
+            print(rows[-1], flush=True)
+    text = '\n\n'.join([
+        "## The soft step's solve stage (benchmarks/gpu_solve.py)",
+        f'A step\'s substeps and restitution pass on the rows of a lattice pile (radius '
+        f'{RADIUS} m, {DENSITY:g} kg/m^3, from the floor up; landing: layer k closing at '
+        f'{LANDING_SPEED} m/s on the one below), its first step; medians of {repeats}. '
+        'launches: a launch per pass and colour; cooperative: one launch, the grid synced '
+        'between passes; cpu_one_core: soft_step._substeps and restitution_pass. The gaps '
+        '(m/s, m): the largest difference of the GPU\'s velocities and moves from the '
+        "CPU's. Detection and the rows are made on the CPU and not timed.",
+        table(rows)])
+    return rows, text
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--sizes', type=int, nargs='+',
+                        default=[100_000, 1_000_000, 10_000_000])
+    parser.add_argument('--repeats', type=int, default=11)
+    parser.add_argument('--cpu-max', type=int, default=CPU_MAX)
+    parser.add_argument('--out', default='results/gpu')
+    arguments = parser.parse_args()
+    rows, text = measure(arguments.sizes, arguments.repeats, arguments.cpu_max)
+    out = pathlib.Path(arguments.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(rows, out / 'gpu_solve.csv')
+    command = 'python3 -m benchmarks.gpu_solve --sizes ' + ' '.join(map(str, arguments.sizes))
+    (out / 'gpu_solve.md').write_text(provenance(command) + '\n\n' + text + '\n')
+    print(text)
+
+
+if __name__ == '__main__':
+    main()

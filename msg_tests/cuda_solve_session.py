@@ -1,0 +1,116 @@
+"""The soft step's solve stage on the GPU (physics/cuda/device_solve.py) against the CPU's,
+on the rows soft_step.contact_rows makes from a colliding column of spheres: landing (the
+support sweep and the restitution pass at work) and at rest.
+
+    python -m cuda_solve_session CASES.npz OUT.npz   # in numba's CUDA simulator
+
+reads the cases the test wrote (write_cases) and writes what DeviceSolve leaves, in each of
+its modes. cpu_solve is what soft_step.resolve_collisions runs on the same rows.
+"""
+import sys
+import types
+
+import numpy as np
+
+FIELDS = ('rows', 'solve_order', 'velocity', 'moved', 'change', 'inverse_mass', 'bounces',
+          'colour_start')
+SUPPORT = ('ends', 'facts', 'floor_member', 'floor_gap')
+SCALARS = ('settings', 'dt', 'threshold', 'restitution')
+OUTPUTS = ('rows', 'velocity', 'moved')
+
+
+def column_scene(count=48):
+    """count spheres (radii 3-5 cm, 400-3000 kg/m^3, some lighter than water) dropped in
+    a 0.5 m square column of water 1 m deep, 1 m of air above it: a pile on the floor."""
+    from pool_sim.physics import Scene
+    from pool_sim.physics.effects import DEFAULT_EFFECTS
+    rng = np.random.default_rng(5)
+    radius = rng.uniform(0.03, 0.05, count).round(4)
+    mass = (rng.uniform(400.0, 3000.0, count) * 4.0 / 3.0 * np.pi * radius**3).round(6)
+    layer = np.array([(x, y) for x in (-0.15, -0.05, 0.05, 0.15) for y in (-0.15, -0.05,
+                                                                            0.05, 0.15)])
+    position = np.array([(*layer[i % 16] + rng.uniform(-0.01, 0.01, 2), 0.3 + 0.11 * (i // 16))
+                         for i in range(count)]).round(4)
+    return Scene({'sphere_names': [f's{i}' for i in range(count)],
+                  'effects': [*DEFAULT_EFFECTS, 'collisions'], 'contact_solver': 'soft_step',
+                  'pool.min': [-0.25, -0.25, -1.0], 'pool.max': [0.25, 0.25, 1.0],
+                  'contact.restitution': 0.5, 'spheres.position': position.ravel().tolist(),
+                  'spheres.radius': radius.tolist(), 'spheres.mass': mass.tolist()})
+
+
+def case_of(ready, settings, dt, threshold, restitution):
+    """A Prepared's arrays (and the step's scalars) by name."""
+    case = {name: np.asarray(getattr(ready, name)) for name in FIELDS}
+    case.update(zip(SUPPORT, ready.support))
+    case.update(settings=np.asarray(settings, dtype=float), dt=np.float64(dt),
+                threshold=np.float64(threshold), restitution=np.float64(restitution))
+    return case
+
+
+def cases():
+    """{label: case}: the column landing (0.9 s) and at rest (4 s), and the landing swept
+    as one last colour (every contact by one thread, in slot order: the serial path)."""
+    from benchmarks.solve_passes import prepared_from
+    from pool_sim.physics.contacts.colouring import COLOURS
+    chosen = {'landing': case_of(*prepared_from(column_scene(), 0.9)),
+              'rest': case_of(*prepared_from(column_scene(), 4.0))}
+    serial = dict(chosen['landing'])
+    serial['colour_start'] = np.zeros(COLOURS + 1, dtype=np.int64)
+    serial['colour_start'][-1] = serial['rows'].shape[0]
+    chosen['serial'] = serial
+    return chosen
+
+
+def ready_of(case):
+    """A stand-in for soft_step.Prepared with the case's arrays (copies)."""
+    ready = types.SimpleNamespace(**{name: case[name].copy() for name in FIELDS})
+    ready.support = tuple(case[name].copy() for name in SUPPORT)
+    ready.sphere = np.arange(case['velocity'].shape[0] - 1)
+    return ready
+
+
+def cpu_solve(case):
+    """(rows, velocity, moved) after soft_step's substeps and restitution pass on the CPU,
+    as resolve_collisions runs them."""
+    from pool_sim.physics.contacts import soft_step
+    ready = ready_of(case)
+    supported = np.zeros(ready.sphere.size, dtype=np.bool_)
+    soft_step._substeps(ready.rows, ready.solve_order, ready.velocity, ready.moved,
+                        ready.change, ready.inverse_mass, case['settings'], float(case['dt']),
+                        ready.support, float(case['threshold']), supported)
+    soft_step.restitution_pass(ready.rows, ready.solve_order, ready.velocity,
+                               ready.inverse_mass, float(case['threshold']),
+                               float(case['restitution']), ready.bounces)
+    return ready.rows, ready.velocity, ready.moved
+
+
+def write_cases(path):
+    """cases() into an npz, each array as label.name."""
+    np.savez(path, **{f'{label}.{name}': value for label, case in cases().items()
+                      for name, value in case.items()})
+
+
+def read_cases(path):
+    """write_cases' file back as {label: case}."""
+    chosen = {}
+    with np.load(path) as kept:
+        for key in kept.files:
+            label, name = key.split('.', 1)
+            chosen.setdefault(label, {})[name] = kept[key]
+    return chosen
+
+
+def main(cases_path, out_path):
+    from pool_sim.physics.cuda.device_solve import DeviceSolve, MODES
+    results = {}
+    for label, case in read_cases(cases_path).items():
+        for mode in MODES:
+            left = DeviceSolve(mode).run(ready_of(case), case['settings'], float(case['dt']),
+                                         float(case['threshold']), float(case['restitution']))
+            results.update({f'{label}.{mode}.{name}': value
+                            for name, value in zip(OUTPUTS, left)})
+    np.savez(out_path, **results)
+
+
+if __name__ == '__main__':
+    main(*sys.argv[1:3])

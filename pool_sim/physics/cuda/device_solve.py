@@ -1,0 +1,130 @@
+"""DeviceSolve: a step's soft-step substeps and restitution pass (what soft_step.py's
+_substeps and restitution_pass do on the CPU) on the GPU, on the rows contact_rows made.
+
+It is the solve stage of collisions on the GPU, measured and tested on its own: the
+contacts are still found and their rows made on the CPU (detection's cell sort and the
+greedy colouring have no GPU form yet: docs/gpu.md), so `backend: cuda` does not take
+`collisions` yet.
+"""
+import math
+
+import numpy as np
+
+from ..contacts.colouring import COLOURS
+from . import load_cuda
+from .contact_kernels import CARRY, KERNELS, RESTITUTE, SOLVE
+
+THREADS_PER_BLOCK = 128
+MODES = ('launches', 'cooperative')
+
+
+def colour_bounds(colour_start):
+    """(bounds (k + 1,) int64: where each of the k non-empty colours' slots begin, then the
+    end; serial: the index among them of the last colour, whose contacts may share a sphere
+    (-1 if it has none)) of colouring.colour_contacts' colour_start."""
+    starts = np.asarray(colour_start, dtype=np.int64)
+    kept = [c for c in range(COLOURS) if starts[c + 1] > starts[c]]
+    bounds = np.array([starts[c] for c in kept] + [starts[COLOURS]], dtype=np.int64)
+    serial = kept.index(COLOURS - 1) if COLOURS - 1 in kept else -1
+    return bounds, serial
+
+
+def _threads_for(count):
+    """Threads a block for a launch over count items: a warp's multiple, at most
+    THREADS_PER_BLOCK (a colour of a few contacts launches few threads)."""
+    return min(THREADS_PER_BLOCK, max(32, 32 * math.ceil(count / 32)))
+
+
+class DeviceSolve:
+    """The soft step's substeps and restitution pass on the GPU (contact_kernels.py), in
+    either of MODES. run() takes a soft_step.Prepared and returns what the CPU's passes
+    leave in it."""
+
+    _compiled = {}  # kernel name -> the kernel, shared by every DeviceSolve
+
+    def __init__(self, mode='cooperative'):
+        if mode not in MODES:
+            raise ValueError(f'mode must be one of {MODES}, not {mode!r}')
+        self.cuda = load_cuda()
+        self.mode = mode
+        for kernel in KERNELS:
+            if kernel.__name__ not in self._compiled:
+                self._compiled[kernel.__name__] = self.cuda.jit(kernel)
+        self.kernels = self._compiled
+
+    def upload(self, ready):
+        """The device's copies of a Prepared's arrays (a dict by name)."""
+        to_device = self.cuda.to_device
+        names = ('rows', 'solve_order', 'velocity', 'moved', 'change', 'inverse_mass',
+                 'bounces')
+        arrays = {name: to_device(np.ascontiguousarray(getattr(ready, name)))
+                  for name in names}
+        for name, array in zip(('ends', 'facts', 'floor_member', 'floor_gap'), ready.support):
+            arrays[name] = to_device(np.ascontiguousarray(array))
+        arrays['supported'] = to_device(np.zeros(ready.sphere.size, dtype=np.bool_))
+        return arrays
+
+    def run(self, ready, settings, dt, threshold, restitution):
+        """A step's substeps and restitution pass on ready (a soft_step.Prepared; settings,
+        dt s, threshold m/s and restitution as soft_step.resolve_collisions has them).
+        Returns the (rows, velocity, moved) they leave, host arrays."""
+        arrays = self.upload(ready)
+        self.solve(arrays, ready.colour_start, settings, dt, threshold, restitution)
+        self.cuda.synchronize()
+        return tuple(arrays[name].copy_to_host() for name in ('rows', 'velocity', 'moved'))
+
+    def solve(self, arrays, colour_start, settings, dt, threshold, restitution):
+        """Enqueues a step's substeps and restitution pass on uploaded arrays."""
+        substeps = int(settings[0])
+        h = dt / substeps
+        scalars = (float(settings[3]), 1.0 / h, float(threshold), float(restitution))
+        bounds, serial = colour_bounds(colour_start)
+        fastest = self.cuda.to_device(np.zeros(substeps))
+        if self.mode == 'cooperative':
+            self._cooperative(arrays, bounds, serial, fastest, substeps, h, scalars)
+        else:
+            self._launches(arrays, bounds, serial, fastest, substeps, h, scalars)
+
+    def _cooperative(self, arrays, bounds, serial, fastest, substeps, h, scalars):
+        a = arrays
+        arguments = (a['rows'], a['solve_order'], a['velocity'], a['moved'], a['change'],
+                     a['inverse_mass'], a['bounces'], self.cuda.to_device(bounds), serial,
+                     a['ends'], a['facts'], a['floor_member'], a['floor_gap'], a['supported'],
+                     fastest, substeps, h, scalars)
+        # Compiled for these arguments' types first: a cooperative grid may be no larger
+        # than the compiled kernel's blocks the device holds at once.
+        kernel = self.kernels['substeps_kernel'].specialize(*arguments)
+        overloads = kernel.overloads
+        overload = next(iter(overloads.values()), None) or overloads[None]  # the simulator's
+        work = max(a['rows'].shape[0], a['velocity'].shape[0])
+        threads = _threads_for(work)
+        blocks = min(math.ceil(work / threads),
+                     max(1, overload.max_cooperative_grid_blocks(threads)))
+        kernel[blocks, threads](*arguments)
+
+    def _launches(self, arrays, bounds, serial, fastest, substeps, h, scalars):
+        a, k = arrays, self.kernels
+        members = a['velocity'].shape[0] - 1
+        member_grid = (max(1, math.ceil(members / _threads_for(members))),
+                       _threads_for(members))
+
+        def colours(kind, use_bias, hold_apart):
+            for c in range(bounds.size - 1):
+                first, last = int(bounds[c]), int(bounds[c + 1])
+                count = 1 if c == serial else last - first
+                threads = _threads_for(count)
+                k['contacts_kernel'][math.ceil(count / threads), threads](
+                    kind, a['rows'], a['solve_order'], a['velocity'], a['moved'],
+                    a['inverse_mass'], a['bounces'], first, last, c == serial, use_bias,
+                    hold_apart, scalars)
+        for substep in range(substeps):
+            k['members_kernel'][member_grid](False, a['velocity'], a['change'], a['moved'], h)
+            colours(CARRY, True, True)
+            colours(SOLVE, True, True)
+            k['fastest_kernel'][member_grid](a['velocity'], fastest, substep)
+            k['support_kernel'][1, 1](a['ends'], a['facts'], a['floor_member'],
+                                      a['floor_gap'], a['velocity'], a['moved'], scalars[1],
+                                      scalars[2], a['supported'], fastest, substep)
+            k['members_kernel'][member_grid](True, a['velocity'], a['change'], a['moved'], h)
+            colours(SOLVE, False, substep < substeps - 1)
+        colours(RESTITUTE, False, False)
