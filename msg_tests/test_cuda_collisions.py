@@ -7,13 +7,15 @@ import sys
 import types
 from unittest import mock
 
+from hypothesis import given, settings, strategies as st
 import numba
 import numpy as np
 import pytest
 
 from cuda_solve_session import OUTPUTS, cpu_solve, read_cases, write_cases
 from pool_sim.physics.contacts.colouring import COLOURS
-from pool_sim.physics.contacts.soft_step import may_land
+from pool_sim.physics.contacts.layers import sweep_waves
+from pool_sim.physics.contacts.soft_step import hold_up, may_land
 from pool_sim.physics.cuda import load_cuda, simulated
 from test_cuda_backend import ROOT, simulator_environment
 
@@ -26,9 +28,10 @@ SAMPLES = {
                         SCALARS),
     'members_kernel': (False, BODIES, BODIES, BODIES, 0.1),
     'fastest_kernel': (BODIES, REAL, 0),
-    'support_kernel': (PAIRS, BODIES, WHOLE, REAL, BODIES, BODIES, 1.0, 1.0, FLAG, REAL, 0),
+    'support_kernel': (2, PAIRS, BODIES, WHOLE, REAL, BODIES, BODIES, 1.0, 1.0, FLAG, REAL, 0,
+                       0, 1),
     'substeps_kernel': (ROWS, PAIRS, BODIES, BODIES, BODIES, REAL, FLAG, WHOLE, 0, PAIRS,
-                        BODIES, WHOLE, REAL, FLAG, REAL, 4, 0.1, SCALARS),
+                        BODIES, WHOLE, WHOLE, REAL, FLAG, REAL, 4, 0.1, SCALARS),
 }
 
 
@@ -90,6 +93,13 @@ def test_the_cases_exercise_what_they_claim(solved):
     assert landing['ends'].shape[0] >= 5 and landing['floor_member'].size >= 3
     _, velocity, _ = cpu_solve(landing)
     assert np.max(np.abs(velocity - landing['velocity'])) > 0.05
+    # The support sweep acts (without it the velocities differ), over more than one wave.
+    unsupported = {**landing, 'ends': landing['ends'][:0], 'facts': landing['facts'][:0],
+                   'floor_member': landing['floor_member'][:0],
+                   'floor_gap': landing['floor_gap'][:0]}
+    assert np.max(np.abs(cpu_solve(unsupported)[1] - velocity)) > 0.05
+    _, waves = sweep_waves(landing['ends'], landing['velocity'].shape[0] - 1)
+    assert waves.size >= 3
     # At rest: nothing bounces, nothing is fast enough for the sweep.
     fastest = np.max(np.sum(rest['velocity'][:-1, :3] ** 2, axis=1))
     assert rest['bounces'].sum() == 0 and not may_land(fastest, float(rest['threshold']))
@@ -117,3 +127,44 @@ def test_an_unknown_launch_mode_is_refused(mode):
     with pytest.raises(ValueError, match='mode must be one of'):
         DeviceSolve(mode)
 
+
+
+@settings(deadline=None)  # the first example compiles hold_up
+@given(st.integers(2, 12), st.integers(0, 40), st.integers(0, 2**32 - 1))
+def test_the_support_sweep_wave_by_wave_is_the_serial_sweep_to_the_bit(members, found, seed):
+    # Any sweep order: contacts between random spheres (some chained, some sharing an
+    # upper or a lower sphere), random normals that bear weight, gaps, velocities, moves
+    # and floor contacts; fast enough that approaches stop.
+    rng = np.random.default_rng(seed)
+    ends = np.empty((found, 2), dtype=np.int64)
+    ends[:, 0] = rng.integers(0, members, found)
+    ends[:, 1] = (ends[:, 0] + rng.integers(1, members, found)) % members  # not the upper
+    normal = rng.normal(size=(found, 3))
+    normal[:, 2] = np.abs(normal[:, 2]) + 0.5
+    facts = np.column_stack([normal / np.linalg.norm(normal, axis=1)[:, None],
+                             rng.uniform(-1e-3, 1e-3, found)])
+    floor_member = rng.permutation(members)[:rng.integers(0, members + 1)]
+    floor_gap = rng.uniform(-1e-3, 1e-3, floor_member.size)
+    velocity = np.zeros((members + 1, 4))
+    velocity[:members, :3] = rng.normal(0.0, 2.0, (members, 3))
+    moved = np.zeros((members + 1, 4))
+    moved[:members, :3] = rng.normal(0.0, 1e-3, (members, 3))
+    order, bounds = sweep_waves(ends, members)
+    assert sorted(order.tolist()) == list(range(found)) and bounds[-1] == found
+    for w in range(bounds.size - 1):  # within a wave, a written sphere is touched once
+        wave = ends[order[bounds[w]:bounds[w + 1]]]
+        written, touched = wave[:, 0].tolist(), wave.ravel().tolist()
+        assert all(touched.count(k) == 1 for k in written)
+        assert list(order[bounds[w]:bounds[w + 1]]) == sorted(order[bounds[w]:bounds[w + 1]])
+    left = []
+    for chosen in (np.arange(found), order):
+        v, supported = velocity.copy(), np.zeros(members, dtype=np.bool_)
+        hold_up(ends[chosen], facts[chosen], floor_member, floor_gap, v, moved, 200.0, 0.05,
+                supported)
+        left.append((v, supported))
+    assert np.array_equal(left[0][0], left[1][0]) and np.array_equal(left[0][1], left[1][1])
+
+
+def test_no_contacts_make_no_waves():
+    order, bounds = sweep_waves(np.empty((0, 2), dtype=np.int64), 5)
+    assert order.size == 0 and bounds.tolist() == [0]

@@ -4,6 +4,7 @@ support sweep each visit a contact after the contacts below it."""
 import math
 
 import numba
+import numpy as np
 
 from .detection import counting_sort, take
 
@@ -26,3 +27,28 @@ def bottom_up_order(ends, z, radius, wholes, used_whole):
         layer[c] = min(int((height - lowest) / smallest), layers - 1)
     order, _, used_whole = counting_sort(layer, layers, wholes, used_whole)
     return order, used_whole
+
+
+@numba.njit(error_model='numpy')
+def sweep_waves(ends, members):
+    """(order (b,) int64, bounds (w + 1,) int64): a serial sweep's contacts (ends (b, 2):
+    the sphere each writes, then the one it only reads, rows below members) regrouped into
+    waves that may each be swept at once (the support sweep on a GPU): a contact goes in a
+    later wave than every contact before it that writes a sphere it touches or reads the
+    one it writes. So no two contacts of a wave touch a sphere one of them writes, and
+    wave after wave is the serial sweep's result to the bit. Within a wave, the contacts
+    keep their order; wave k is order[bounds[k]:bounds[k + 1]]."""
+    found = ends.shape[0]
+    written = np.full(members, -1, dtype=np.int64)  # the last wave that wrote each sphere
+    read = np.full(members, -1, dtype=np.int64)  # the last wave that read it
+    wave = np.empty(found, dtype=np.int64)
+    waves = 0
+    for q in range(found):
+        writes, reads = ends[q, 0], ends[q, 1]
+        w = max(written[writes], written[reads], read[writes]) + 1
+        wave[q] = w
+        written[writes] = w
+        read[reads] = max(read[reads], w)
+        waves = max(waves, w + 1)
+    order, bounds, _ = counting_sort(wave, waves, np.empty(0, dtype=np.int64), 0)
+    return order, bounds

@@ -328,26 +328,40 @@ def may_land(fastest, threshold):
 @numba.njit(error_model='numpy', inline='always')
 def hold_up(ends, facts, floor_member, floor_gap, velocity, moved, inverse_h, threshold,
             supported):
-    """_support_sweep's sweep bottom up, once may_land (its arguments; serial: a contact
-    is held up only by one below it, swept before it)."""
+    """_support_sweep's sweep bottom up, once may_land (its arguments): what the floor holds
+    (hold_on_floor), then each contact (hold_up_contact), in order."""
     supported[:] = False
     for f in range(floor_member.size):
-        k = floor_member[f]
-        # Lifting off (rising faster than threshold): holds nothing up.
-        supported[k] = floor_gap[f] + moved[k, 2] <= _HOLDING_GAP and velocity[k, 2] <= threshold
+        hold_on_floor(floor_member, floor_gap, f, velocity, moved, threshold, supported)
     for q in range(ends.shape[0]):
-        upper, lower = ends[q, 0], ends[q, 1]
-        if not supported[lower]:
-            continue
-        nx, ny, nz = facts[q, 0], facts[q, 1], facts[q, 2]
-        gap = facts[q, 3] + ((moved[upper, 0] - moved[lower, 0]) * nx
-                             + (moved[upper, 1] - moved[lower, 1]) * ny
-                             + (moved[upper, 2] - moved[lower, 2]) * nz)
-        supported[upper] = supported[upper] or gap <= _HOLDING_GAP
-        approach = -((velocity[upper, 0] - velocity[lower, 0]) * nx
-                     + (velocity[upper, 1] - velocity[lower, 1]) * ny
-                     + (velocity[upper, 2] - velocity[lower, 2]) * nz) - max(gap, 0.0) * inverse_h
-        if approach > threshold:
-            velocity[upper, 0] += approach * nx
-            velocity[upper, 1] += approach * ny
-            velocity[upper, 2] += approach * nz
+        hold_up_contact(ends, facts, q, velocity, moved, inverse_h, threshold, supported)
+
+
+@numba.njit(error_model='numpy', inline='always')
+def hold_on_floor(floor_member, floor_gap, f, velocity, moved, threshold, supported):
+    """Whether the floor holds up floor contact f's sphere, into supported."""
+    k = floor_member[f]
+    # Lifting off (rising faster than threshold): holds nothing up.
+    supported[k] = floor_gap[f] + moved[k, 2] <= _HOLDING_GAP and velocity[k, 2] <= threshold
+
+
+@numba.njit(error_model='numpy', inline='always')
+def hold_up_contact(ends, facts, q, velocity, moved, inverse_h, threshold, supported):
+    """Contact q of the sweep: a held-up lower sphere holds up the upper one touching it,
+    whose approach beyond the gap / h stops. Reads both spheres, writes the upper's
+    velocity and supported (layers.sweep_waves: which contacts may go at once)."""
+    upper, lower = ends[q, 0], ends[q, 1]
+    if not supported[lower]:
+        return
+    nx, ny, nz = facts[q, 0], facts[q, 1], facts[q, 2]
+    gap = facts[q, 3] + ((moved[upper, 0] - moved[lower, 0]) * nx
+                         + (moved[upper, 1] - moved[lower, 1]) * ny
+                         + (moved[upper, 2] - moved[lower, 2]) * nz)
+    supported[upper] = supported[upper] or gap <= _HOLDING_GAP
+    approach = -((velocity[upper, 0] - velocity[lower, 0]) * nx
+                 + (velocity[upper, 1] - velocity[lower, 1]) * ny
+                 + (velocity[upper, 2] - velocity[lower, 2]) * nz) - max(gap, 0.0) * inverse_h
+    if approach > threshold:
+        velocity[upper, 0] += approach * nx
+        velocity[upper, 1] += approach * ny
+        velocity[upper, 2] += approach * nz

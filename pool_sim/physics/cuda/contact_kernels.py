@@ -6,11 +6,13 @@ A colour's contacts share no sphere (contacts/colouring.py; the ground, of no in
 is written only with the value it has), so a colour is one thread a contact with no atomics,
 and sweeping the colours in order gives what the CPU's serial sweep gives, to the bit. The
 last colour, which takes what the others could not and may share spheres, is swept by one
-thread in slot order, as on the CPU.
+thread in slot order, as on the CPU. The support sweep, serial bottom up on the CPU, goes
+wave by wave (layers.sweep_waves: contacts of a wave touch no sphere another writes).
 
 Two ways to launch the same passes (DeviceSolve's `mode`):
 - 'launches': a launch per pass and colour (contacts_kernel, members_kernel, ...): a step
-  of c colours is 4 x (3c + 4) + c launches, each tens of µs of numba-cuda's dispatch.
+  of c colours and w waves of the support sweep is 4 x (3c + 5 + w) + c launches, each
+  tens of µs of numba-cuda's dispatch.
 - 'cooperative': one launch a step (substeps_kernel); the grid waits for itself between
   passes (cuda.cg.this_grid().sync()), so the grid is no larger than the device holds at
   once, and each thread strides over contacts and members.
@@ -18,7 +20,8 @@ Two ways to launch the same passes (DeviceSolve's `mode`):
 import numba
 
 from ..contacts.soft_contact import carry_contact, restitute_contact, solve_contact
-from ..contacts.soft_step import change_member, hold_up, may_land, move_member, speed_squared
+from ..contacts.soft_step import change_member, hold_on_floor, hold_up_contact, may_land, \
+    move_member, speed_squared
 from . import load_cuda
 
 # A global, not a local: numba's CUDA simulator swaps each thread's `cuda` into the
@@ -70,6 +73,23 @@ def fastest_share(velocity, thread, threads):
     return fastest
 
 
+
+@numba.njit(error_model='numpy', inline='always')
+def support_share(part, ends, facts, floor_member, floor_gap, velocity, moved, inverse_h,
+                  threshold, supported, first, last, thread, threads):
+    """One thread's share of a part of the support sweep (soft_step.hold_up): 0, supported
+    cleared; 1, what the floor holds (hold_on_floor); 2, a wave's contacts, first..last - 1
+    of ends and facts in layers.sweep_waves' order (hold_up_contact)."""
+    if part == 0:
+        for k in range(thread, supported.size, threads):
+            supported[k] = False
+    elif part == 1:
+        for f in range(thread, floor_member.size, threads):
+            hold_on_floor(floor_member, floor_gap, f, velocity, moved, threshold, supported)
+    else:
+        for q in range(first + thread, last, threads):
+            hold_up_contact(ends, facts, q, velocity, moved, inverse_h, threshold, supported)
+
 def contacts_kernel(kind, rows, solve_order, velocity, moved, inverse_mass, bounces, first,
                     last, serial, use_bias, hold_apart, scalars):
     """colour_share over a launch's threads (one launch a pass and colour)."""
@@ -88,22 +108,23 @@ def fastest_kernel(velocity, fastest, substep):
     cuda.atomic.max(fastest, substep, fastest_share(velocity, cuda.grid(1), cuda.gridsize(1)))
 
 
-def support_kernel(ends, facts, floor_member, floor_gap, velocity, moved, inverse_h,
-                   threshold, supported, fastest, substep):
-    """The support sweep (soft_step.hold_up), serial, by one thread, if may_land."""
-    if cuda.grid(1) == 0 and may_land(fastest[substep], threshold):
-        hold_up(ends, facts, floor_member, floor_gap, velocity, moved, inverse_h, threshold,
-                supported)
+def support_kernel(part, ends, facts, floor_member, floor_gap, velocity, moved, inverse_h,
+                   threshold, supported, fastest, substep, first, last):
+    """support_share over a launch's threads, if may_land (fastest[substep])."""
+    if may_land(fastest[substep], threshold):
+        support_share(part, ends, facts, floor_member, floor_gap, velocity, moved, inverse_h,
+                      threshold, supported, first, last, cuda.grid(1), cuda.gridsize(1))
 
 
 def substeps_kernel(rows, solve_order, velocity, moved, change, inverse_mass, bounces,
-                    colour_bounds, serial_colour, ends, facts, floor_member, floor_gap,
-                    supported, fastest, substeps, h, scalars):
+                    colour_bounds, serial_colour, ends, facts, wave_bounds, floor_member,
+                    floor_gap, supported, fastest, substeps, h, scalars):
     """A step's substeps and its restitution pass in one cooperative launch, in
     soft_step._substeps' order: the grid syncs between passes (and colours).
     colour_bounds (colours + 1,) int64: the slots where each non-empty colour begins;
-    serial_colour: the index of the one swept by one thread (-1: none); fastest
-    (substeps,) zeros; scalars as colour_share takes them."""
+    serial_colour: the index of the one swept by one thread (-1: none); ends, facts: the
+    support sweep's, wave by wave, wave_bounds where each wave begins (layers.sweep_waves);
+    fastest (substeps,) zeros; scalars as colour_share takes them."""
     grid = cuda.cg.this_grid()
     thread, threads = cuda.grid(1), cuda.gridsize(1)
     colours = colour_bounds.size - 1
@@ -120,10 +141,15 @@ def substeps_kernel(rows, solve_order, velocity, moved, change, inverse_mass, bo
             if not final and sweep == 2:
                 cuda.atomic.max(fastest, substep, fastest_share(velocity, thread, threads))
                 grid.sync()
-                if thread == 0 and may_land(fastest[substep], threshold):
-                    hold_up(ends, facts, floor_member, floor_gap, velocity, moved, inverse_h,
-                            threshold, supported)
-                grid.sync()
+                if may_land(fastest[substep], threshold):  # the same for every thread
+                    for part in range(wave_bounds.size + 1):  # clear, the floor, each wave
+                        wave = max(part - 2, 0)
+                        first, last = ((wave_bounds[wave], wave_bounds[wave + 1]) if part >= 2
+                                       else (0, 0))
+                        support_share(min(part, 2), ends, facts, floor_member, floor_gap,
+                                      velocity, moved, inverse_h, threshold, supported, first,
+                                      last, thread, threads)
+                        grid.sync()
                 members_share(True, velocity, change, moved, h, thread, threads)
                 grid.sync()
             kind = RESTITUTE if final else (CARRY if sweep == 0 else SOLVE)

@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from ..contacts.colouring import COLOURS
+from ..contacts.layers import sweep_waves
 from . import load_cuda
 from .contact_kernels import CARRY, KERNELS, RESTITUTE, SOLVE
 
@@ -59,7 +60,12 @@ class DeviceSolve:
                  'bounces')
         arrays = {name: to_device(np.ascontiguousarray(getattr(ready, name)))
                   for name in names}
-        for name, array in zip(('ends', 'facts', 'floor_member', 'floor_gap'), ready.support):
+        ends, facts, floor_member, floor_gap = ready.support
+        # The support sweep wave by wave: contacts of a wave touch no sphere another writes.
+        order, wave_bounds = sweep_waves(ends, ready.sphere.size)
+        support = {'ends': ends[order], 'facts': facts[order], 'wave_bounds': wave_bounds,
+                   'floor_member': floor_member, 'floor_gap': floor_gap}
+        for name, array in support.items():
             arrays[name] = to_device(np.ascontiguousarray(array))
         arrays['supported'] = to_device(np.zeros(ready.sphere.size, dtype=np.bool_))
         return arrays
@@ -89,8 +95,8 @@ class DeviceSolve:
         a = arrays
         arguments = (a['rows'], a['solve_order'], a['velocity'], a['moved'], a['change'],
                      a['inverse_mass'], a['bounces'], self.cuda.to_device(bounds), serial,
-                     a['ends'], a['facts'], a['floor_member'], a['floor_gap'], a['supported'],
-                     fastest, substeps, h, scalars)
+                     a['ends'], a['facts'], a['wave_bounds'], a['floor_member'],
+                     a['floor_gap'], a['supported'], fastest, substeps, h, scalars)
         # Compiled for these arguments' types first: a cooperative grid may be no larger
         # than the compiled kernel's blocks the device holds at once.
         kernel = self.kernels['substeps_kernel'].specialize(*arguments)
@@ -117,14 +123,22 @@ class DeviceSolve:
                     kind, a['rows'], a['solve_order'], a['velocity'], a['moved'],
                     a['inverse_mass'], a['bounces'], first, last, c == serial, use_bias,
                     hold_apart, scalars)
+        waves, floors = a['wave_bounds'].copy_to_host(), a['floor_member'].shape[0]
+        # The support sweep's parts: supported cleared, the floor, then wave by wave.
+        support_parts = [(0, 0, 0), (1, 0, 0)] + [(2, int(waves[w]), int(waves[w + 1]))
+                                                   for w in range(waves.size - 1)]
         for substep in range(substeps):
             k['members_kernel'][member_grid](False, a['velocity'], a['change'], a['moved'], h)
             colours(CARRY, True, True)
             colours(SOLVE, True, True)
             k['fastest_kernel'][member_grid](a['velocity'], fastest, substep)
-            k['support_kernel'][1, 1](a['ends'], a['facts'], a['floor_member'],
-                                      a['floor_gap'], a['velocity'], a['moved'], scalars[1],
-                                      scalars[2], a['supported'], fastest, substep)
+            for part, first, last in support_parts:
+                count = max(1, (members, floors, last - first)[part])
+                threads = _threads_for(count)
+                k['support_kernel'][math.ceil(count / threads), threads](
+                    part, a['ends'], a['facts'], a['floor_member'], a['floor_gap'],
+                    a['velocity'], a['moved'], scalars[1], scalars[2], a['supported'],
+                    fastest, substep, first, last)
             k['members_kernel'][member_grid](True, a['velocity'], a['change'], a['moved'], h)
             colours(SOLVE, False, substep < substeps - 1)
         colours(RESTITUTE, False, False)
