@@ -5,7 +5,8 @@ support sweep and the restitution pass at work) and at rest.
     python -m cuda_solve_session CASES.npz OUT.npz   # in numba's CUDA simulator
 
 reads the cases the test wrote (write_cases) and writes what DeviceSolve leaves, in each of
-its modes. cpu_solve is what soft_step.resolve_collisions runs on the same rows.
+its modes, and what DeviceDetect finds. cpu_solve is what soft_step.resolve_collisions runs
+on the same rows; cpu_detect, its detection.
 """
 import sys
 import types
@@ -17,16 +18,17 @@ FIELDS = ('rows', 'solve_order', 'velocity', 'moved', 'change', 'inverse_mass', 
 SUPPORT = ('ends', 'facts', 'floor_member', 'floor_gap')
 SCALARS = ('settings', 'dt', 'threshold', 'restitution')
 OUTPUTS = ('rows', 'velocity', 'moved')
+DETECTION = ('old_position', 'old_velocity', 'position', 'velocity', 'radius')
 
 
-def column_scene(count=48):
-    """count spheres (radii 3-5 cm, 400-3000 kg/m^3, some lighter than water) dropped in
-    a 0.5 m square column from 0.3-0.6 m up through air into 12 cm of water: they land at
-    about 3 m/s, and then lie in a pile on the floor."""
+def column_scene(count=48, smallest_radius=0.03):
+    """count spheres (radii smallest_radius m to 5 cm, 400-3000 kg/m^3, some lighter than
+    water) dropped in a 0.5 m square column from 0.3-0.6 m up through air into 12 cm of
+    water: they land at about 3 m/s, and then lie in a pile on the floor."""
     from pool_sim.physics import Scene
     from pool_sim.physics.effects import DEFAULT_EFFECTS
     rng = np.random.default_rng(5)
-    radius = rng.uniform(0.03, 0.05, count).round(4)
+    radius = rng.uniform(smallest_radius, 0.05, count).round(4)
     mass = (rng.uniform(400.0, 3000.0, count) * 4.0 / 3.0 * np.pi * radius**3).round(6)
     layer = np.array([(x, y) for x in (-0.15, -0.05, 0.05, 0.15) for y in (-0.15, -0.05,
                                                                             0.05, 0.15)])
@@ -62,6 +64,43 @@ def cases():
     return chosen
 
 
+def detection_input(scene, seconds):
+    """{old_position, old_velocity, position, velocity, radius, dt}: what soft_step's
+    detection takes in the scene's step after `seconds` (the smooth step's end)."""
+    from benchmarks.contact_stages import contacts_of
+    from pool_sim.physics import Simulation
+    effects = [name for name in scene['effects'] if name != 'collisions']
+    colliding, smooth = Simulation(scene), Simulation(scene.with_values(effects=effects))
+    dt = colliding.max_step
+    colliding.run(int(round(seconds / dt)), dt)
+    smooth.spheres.position[:] = colliding.spheres.position
+    smooth.spheres.velocity[:] = colliding.spheres.velocity
+    _, _, ((old_position, old_velocity), (position, velocity), _, _), _ = contacts_of(
+        colliding, smooth)
+    return {'old_position': old_position, 'old_velocity': old_velocity, 'position': position,
+            'velocity': velocity, 'radius': colliding.spheres.radius.copy(),
+            'dt': np.float64(dt)}
+
+
+def detection_cases():
+    """{label: detection_input}: the column landing and at rest, and landing with radii from
+    8 mm (bounding spheres in more than one level)."""
+    return {'detect_landing': detection_input(column_scene(), 0.3),
+            'detect_rest': detection_input(column_scene(), 4.0),
+            'detect_levels': detection_input(column_scene(smallest_radius=0.008), 0.3)}
+
+
+def cpu_detect(case):
+    """detect_contacts' Contacts on the CPU, as DeviceDetect's dict."""
+    from pool_sim.physics.contacts.detection import detect_contacts
+    none = np.empty(0), np.empty(0, dtype=np.int64)
+    contacts, _, _ = detect_contacts(*(case[name] for name in DETECTION), float(case['dt']),
+                                     *none)
+    facts = np.vstack([contacts.normal, contacts.excess, contacts.added, contacts.closing])
+    return {'pairs': contacts.pairs, 'facts': facts, 'order': contacts.order,
+            'state': contacts.state}
+
+
 def ready_of(case):
     """A stand-in for soft_step.Prepared with the case's arrays (copies)."""
     ready = types.SimpleNamespace(**{name: case[name].copy() for name in FIELDS})
@@ -86,8 +125,9 @@ def cpu_solve(case):
 
 
 def write_cases(path):
-    """cases() into an npz, each array as label.name."""
-    np.savez(path, **{f'{label}.{name}': value for label, case in cases().items()
+    """cases() and detection_cases() into an npz, each array as label.name."""
+    every = {**cases(), **detection_cases()}
+    np.savez(path, **{f'{label}.{name}': value for label, case in every.items()
                       for name, value in case.items()})
 
 
@@ -102,9 +142,18 @@ def read_cases(path):
 
 
 def main(cases_path, out_path):
+    from pool_sim.physics.cuda import load_cuda
+    from pool_sim.physics.cuda.device_detect import DeviceDetect
     from pool_sim.physics.cuda.device_solve import DeviceSolve, MODES
     results = {}
     for label, case in read_cases(cases_path).items():
+        if label.startswith('detect'):
+            cuda = load_cuda()
+            found = DeviceDetect().detect(*(cuda.to_device(np.ascontiguousarray(case[name]))
+                                            for name in DETECTION), float(case['dt']))
+            results.update({f'{label}.{name}': value.copy_to_host()
+                            for name, value in found.items()})
+            continue
         for mode in MODES:
             left = DeviceSolve(mode).run(ready_of(case), case['settings'], float(case['dt']),
                                          float(case['threshold']), float(case['restitution']))

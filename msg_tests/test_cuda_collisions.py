@@ -1,7 +1,9 @@
-"""The soft step's solve stage on the GPU (physics/cuda/contact_kernels.py and
-device_solve.py) without a GPU: its kernels compile to PTX for compute capability 9.0, and
-in numba's CUDA simulator both ways of launching them leave the rows and velocities the
-CPU's substeps and restitution pass leave, bit for bit."""
+"""Collisions on the GPU without a GPU: the soft step's solve stage (physics/cuda/
+contact_kernels.py, device_solve.py) and contact detection (detect_kernels.py,
+device_detect.py). Their kernels compile to PTX for compute capability 9.0; in numba's CUDA
+simulator both ways of launching the solve leave the rows and velocities the CPU's substeps
+and restitution pass leave, and detection finds the CPU's contacts, bit for bit."""
+import importlib
 import subprocess
 import sys
 import types
@@ -12,8 +14,9 @@ import numba
 import numpy as np
 import pytest
 
-from cuda_solve_session import OUTPUTS, cpu_solve, read_cases, write_cases
+from cuda_solve_session import cpu_detect, cpu_solve, OUTPUTS, read_cases, write_cases
 from pool_sim.physics.contacts.colouring import COLOURS
+from pool_sim.physics.contacts.detection import _bounding_spheres, RADIUS
 from pool_sim.physics.contacts.layers import sweep_waves
 from pool_sim.physics.contacts.soft_step import hold_up, may_land
 from pool_sim.physics.cuda import load_cuda, simulated
@@ -34,25 +37,45 @@ SAMPLES = {
                         BODIES, WHOLE, WHOLE, REAL, FLAG, REAL, 4, 0.1, SCALARS),
 }
 
+AXES, AXES_WHOLE = np.zeros((3, 2)), np.zeros((3, 2), np.int64)
+LEVELS, LEVELS_WHOLE = np.zeros((2, 3)), np.zeros((2, 3), np.int64)
+GRIDS = (np.zeros((2, 4), np.int64), WHOLE, LEVELS_WHOLE, WHOLE, WHOLE, np.zeros((2, 4)), REAL,
+         LEVELS, REAL)
+DETECT_SAMPLES = {
+    'bounds_kernel': (AXES, AXES, REAL, AXES, REAL, REAL),
+    'levels_kernel': (REAL, REAL, WHOLE, WHOLE),
+    'extents_kernel': (AXES, REAL, WHOLE, WHOLE, REAL, LEVELS, LEVELS),
+    'grids_kernel': (WHOLE, REAL, LEVELS, LEVELS, REAL, LEVELS_WHOLE, WHOLE),
+    'homes_kernel': (AXES, WHOLE, LEVELS, REAL, LEVELS_WHOLE, WHOLE, AXES_WHOLE, WHOLE),
+    'place_kernel': (AXES, AXES, AXES, AXES, REAL, AXES, REAL, WHOLE, AXES_WHOLE, WHOLE,
+                     np.zeros((2, 4)), np.zeros((2, 4), np.int64), ROWS),
+    'count_kernel': GRIDS + (WHOLE, PAIRS),
+    'write_kernel': GRIDS + (WHOLE, WHOLE, PAIRS),
+    'narrow_kernel': (ROWS, PAIRS, 0.005, np.zeros((6, 2))),
+}
+# Kernels whose atomics are minima, maxima or integer counts (the same in any order).
+ATOMIC = ('fastest_kernel', 'substeps_kernel', 'bounds_kernel', 'levels_kernel',
+          'extents_kernel')
+
 
 @pytest.mark.skipif(simulated(), reason='the simulator has no compiler')
-@pytest.mark.parametrize('name', sorted(SAMPLES))
-def test_every_contact_kernel_compiles_to_ptx_for_compute_capability_9(name):
+@pytest.mark.parametrize('module, name', [('contact_kernels', name) for name in sorted(SAMPLES)]
+                         + [('detect_kernels', name) for name in sorted(DETECT_SAMPLES)])
+def test_every_collision_kernel_compiles_to_ptx_for_compute_capability_9(module, name):
     # As test_cuda_backend.ptx_of: the current device's compute capability is asked for
     # while an @njit function a kernel calls compiles; answered with 9.0.
     cuda = load_cuda()
     from numba.cuda import dispatcher
-    from pool_sim.physics.cuda import contact_kernels
-    kernel = getattr(contact_kernels, name)
-    signature = tuple(numba.typeof(value) for value in SAMPLES[name])
+    kernel = getattr(importlib.import_module(f'pool_sim.physics.cuda.{module}'), name)
+    samples = {**SAMPLES, **DETECT_SAMPLES}[name]
+    signature = tuple(numba.typeof(value) for value in samples)
     hopper = types.SimpleNamespace(compute_capability=(9, 0))
     with mock.patch.object(dispatcher, 'get_current_device', lambda: hopper):
         ptx, _ = cuda.compile_ptx(kernel, signature, cc=(9, 0))
     assert '.target sm_90' in ptx and '.entry' in ptx and '.const' not in ptx
-    if name in ('fastest_kernel', 'substeps_kernel'):
-        assert 'atom' in ptx  # the maximum speed: the only atomic, and a maximum
-    else:
-        assert 'atom' not in ptx  # a colour's contacts share no sphere: no atomics
+    # A colour's contacts share no sphere, a row writes only its own pairs: no atomics but
+    # the minima, maxima and counts.
+    assert ('atom' in ptx) == (name in ATOMIC)
 
 
 @pytest.fixture(scope='module')
@@ -77,6 +100,32 @@ def test_the_gpu_solve_leaves_what_the_cpu_solve_leaves_bit_for_bit(solved, labe
         gpu = on_gpu[f'{label}.{mode}.{name}']
         assert gpu.shape == value.shape and np.all(np.isfinite(gpu)), name
         assert np.array_equal(gpu, value), (name, float(np.max(np.abs(gpu - value))))
+
+
+@pytest.mark.parametrize('label', ['detect_landing', 'detect_rest', 'detect_levels'])
+def test_detection_on_the_gpu_finds_the_cpu_s_contacts_bit_for_bit(solved, label):
+    chosen, on_gpu = solved
+    on_cpu = cpu_detect(chosen[label])
+    assert on_cpu['pairs'].shape[1] >= 10
+    for name, value in on_cpu.items():
+        gpu = on_gpu[f'{label}.{name}']
+        if name == 'state':  # its columns past RADIUS are padding, never written
+            gpu, value = gpu[:, :RADIUS + 1], value[:, :RADIUS + 1]
+        assert gpu.shape == value.shape, name
+        assert np.array_equal(gpu, value), name
+
+
+def test_the_detection_cases_exercise_what_they_claim(solved):
+    chosen, _ = solved
+    for label, levels in (('detect_landing', 1), ('detect_rest', 1), ('detect_levels', 2)):
+        case = chosen[label]
+        _, reach, level, found, _, _ = _bounding_spheres(
+            case['old_position'], case['position'], case['radius'], np.empty(0),
+            np.empty(0, dtype=np.int64))
+        assert found == levels and np.all(np.bincount(level) >= 10), label
+    # Landing: spheres swept far in the step (bounding spheres larger than at rest).
+    speed = np.linalg.norm(chosen['detect_landing']['velocity'], axis=0)
+    assert speed.max() > 1.0
 
 
 def test_the_cases_exercise_what_they_claim(solved):
@@ -168,3 +217,17 @@ def test_the_support_sweep_wave_by_wave_is_the_serial_sweep_to_the_bit(members, 
 def test_no_contacts_make_no_waves():
     order, bounds = sweep_waves(np.empty((0, 2), dtype=np.int64), 5)
     assert order.size == 0 and bounds.tolist() == [0]
+
+
+@pytest.mark.skipif(simulated(), reason='the simulator sorts with numpy')
+def test_detection_on_a_gpu_without_cupy_is_refused_with_the_install_command():
+    pytest.importorskip('numba.cuda')
+    try:
+        import cupy  # noqa: F401
+        pytest.skip('CuPy is installed here')
+    except ImportError:
+        pass
+    from pool_sim.physics.cuda.device_detect import CUPY_COMMAND, DeviceDetect
+    with pytest.raises(ImportError, match='sorts with CuPy') as refused:
+        DeviceDetect()
+    assert CUPY_COMMAND in str(refused.value)

@@ -6,11 +6,15 @@ pairs in contact, as one Contacts record, for a solver (SOLVERS in contacts/__in
    through another within a step. Bounding spheres go into levels by size, and each level
    is a cell list (a dense grid, counting-sorted): linear in the number of spheres,
    whatever the mix of radii.
-2. Narrow phase: the relative motion of the two centres over the step is taken as linear;
-   a pair is in contact when the centres come within the sum of the radii, and the normal
-   is the direction between them at that first moment (time of impact). Pairs whose
-   bounding spheres meet but which stay apart all step are speculative contacts: they may
-   close no more than their gap, however impulses elsewhere set them moving.
+2. Narrow phase (narrow_phase.py): the relative motion of the two centres over the step is
+   taken as linear; a pair is in contact when the centres come within the sum of the radii,
+   and the normal is the direction between them at that first moment (time of impact).
+   Pairs whose bounding spheres meet but which stay apart all step are speculative
+   contacts: they may close no more than their gap, however impulses elsewhere set them
+   moving.
+
+Each step of it is a function of one sphere, one row or one pair, which the loops here
+call and the GPU's kernels (physics/cuda/detect_kernels.py) call one thread each.
 """
 from collections import namedtuple
 import math
@@ -18,13 +22,12 @@ import math
 import numba
 import numpy as np
 
-from ..kernels.faces import impact_speed
+from .narrow_phase import END_POSITION, END_VELOCITY, RADIUS, START_POSITION, \
+    START_VELOCITY, STATE_COLUMNS, narrow_into
 
 # The broad phase widens every sphere by this fraction of its radius: pairs at rest apart
 # by less than this of their radii's sum are (speculative) contacts too.
 SPECULATIVE_MARGIN = 0.02
-# Centres this much (of the radii's sum) beyond touching still touch: rounding.
-_TOUCHING = 1e-9
 # Broad-phase levels hold reaches within this factor of each other; each level's cell
 # list has at most this many cells per sphere in it (a sparse scene gets coarser cells).
 _LEVEL_RATIO = 4.0
@@ -47,8 +50,6 @@ state: (n, STATE_COLUMNS) float64, the spheres in cell order; its columns from
     START_POSITION (3, m), END_POSITION (3, m), START_VELOCITY (3, m/s), END_VELOCITY
     (3, m/s) and RADIUS (1, m) on; a row is two cache lines.
 """
-START_POSITION, END_POSITION, START_VELOCITY, END_VELOCITY, RADIUS = 0, 3, 6, 9, 12
-STATE_COLUMNS = 16
 
 
 def workspace(count):
@@ -163,10 +164,7 @@ def detect_contacts(old_position, old_velocity, position, velocity, radius, dt, 
     facts, used_real = take(reals, used_real, 6 * total)
     facts = facts.reshape((6, total))  # normal (3), excess, added, closing
     for c in range(total):
-        normal, excess, added, closing = _narrow_phase(state, candidates[0, c],
-                                                       candidates[1, c], dt)
-        facts[0, c], facts[1, c], facts[2, c] = normal
-        facts[3, c], facts[4, c], facts[5, c] = excess, added, closing
+        narrow_into(state, candidates, c, dt, facts)
     return (Contacts(candidates[:, :total], facts[:3], facts[3], facts[4], facts[5], order,
                      state), used_real, used_whole)
 
@@ -181,23 +179,36 @@ def _bounding_spheres(old_position, position, radius, reals, wholes):
     reach, used_real = take(reals, used_real, count)
     smallest = math.inf
     for i in range(count):
-        sweep = 0.0
-        for axis in range(3):
-            centre[axis, i] = 0.5 * (old_position[axis, i] + position[axis, i])
-            sweep += (position[axis, i] - old_position[axis, i]) ** 2
-        reach[i] = radius[i] * (1.0 + SPECULATIVE_MARGIN) + 0.5 * math.sqrt(sweep)
+        bounding_sphere(old_position, position, radius, i, centre, reach)
         smallest = min(smallest, reach[i])
     level, used_whole = take(wholes, 0, count)
-    level[:] = 0
     top = 0
     for i in range(count):
-        bound = smallest * _LEVEL_RATIO
-        while reach[i] > bound and level[i] < _MAX_LEVEL:
-            bound *= _LEVEL_RATIO
-            level[i] += 1
+        level[i] = level_of(reach[i], smallest)
         top = max(top, level[i])
     levels = top + 1
     return centre, reach, level, levels, used_real, used_whole
+
+
+@numba.njit(error_model='numpy', inline='always')
+def bounding_sphere(old_position, position, radius, i, centre, reach):
+    """Sphere i's bounding sphere over the step into centre[:, i] (m) and reach[i] (m)."""
+    sweep = 0.0
+    for axis in range(3):
+        centre[axis, i] = 0.5 * (old_position[axis, i] + position[axis, i])
+        sweep += (position[axis, i] - old_position[axis, i]) ** 2
+    reach[i] = radius[i] * (1.0 + SPECULATIVE_MARGIN) + 0.5 * math.sqrt(sweep)
+
+
+@numba.njit(error_model='numpy', inline='always')
+def level_of(reach, smallest):
+    """The level of a bounding sphere of this reach (m), the smallest's smallest (m)."""
+    level = 0
+    bound = smallest * _LEVEL_RATIO
+    while reach > bound and level < _MAX_LEVEL:
+        bound *= _LEVEL_RATIO
+        level += 1
+    return level
 
 
 @numba.njit(error_model='numpy')
@@ -210,7 +221,7 @@ def _grids(centre, reach, level, levels):
     largest = np.zeros(levels)
     low = np.full((levels, 3), math.inf)
     high = np.full((levels, 3), -math.inf)
-    for i in range(count):
+    for i in range(count):  # each level's extent (a GPU takes these as atomics)
         at = level[i]
         members[at] += 1
         largest[at] = max(largest[at], reach[i])
@@ -220,7 +231,16 @@ def _grids(centre, reach, level, levels):
     size = np.zeros(levels)
     cells = np.ones((levels, 3), dtype=np.int64)
     first_cell = np.zeros(levels + 1, dtype=np.int64)
-    for at in range(levels):
+    size_grids(members, largest, low, high, size, cells, first_cell)
+    return members, largest, low, size, cells, first_cell
+
+
+@numba.njit(error_model='numpy', inline='always')
+def size_grids(members, largest, low, high, size, cells, first_cell):
+    """Each level's cells, from its members, largest reach (m) and its centres' box (low,
+    high (levels, 3) m), into size (levels,) zeros, cells (levels, 3) ones and first_cell
+    (levels + 1,) zeros (see _grids)."""
+    for at in range(members.size):
         if members[at] > 0:
             size[at] = 2.0 * largest[at]
             budget = _CELLS_PER_SPHERE * members[at] + 64.0
@@ -234,7 +254,6 @@ def _grids(centre, reach, level, levels):
             for axis in range(3):
                 cells[at, axis] = int((high[at, axis] - low[at, axis]) / size[at]) + 1
         first_cell[at + 1] = first_cell[at] + cells[at, 0] * cells[at, 1] * cells[at, 2]
-    return members, largest, low, size, cells, first_cell
 
 
 @numba.njit(error_model='numpy')
@@ -248,14 +267,19 @@ def _cell_order(centre, level, low, size, cells, first_cell, wholes, used_whole)
     where, used_whole = take(wholes, used_whole, 3 * count)
     where = where.reshape((3, count))
     for i in range(count):
-        at = level[i]
-        for axis in range(3):
-            where[axis, i] = _cell_of(centre[axis, i], low[at, axis], size[at],
-                                      cells[at, axis])
-        home[i] = first_cell[at] + where[0, i] + cells[at, 0] * (
-            where[1, i] + cells[at, 1] * where[2, i])
+        home[i] = home_of(centre, i, level[i], low, size, cells, first_cell, where)
     order, start, used_whole = counting_sort(home, first_cell[levels], wholes, used_whole)
     return order, where, start, used_whole
+
+
+@numba.njit(error_model='numpy', inline='always')
+def home_of(centre, i, at, low, size, cells, first_cell, where):
+    """Sphere i's cell in its level at's grid, along each axis into where[:, i]; returns
+    its number over every level's cells."""
+    for axis in range(3):
+        where[axis, i] = _cell_of(centre[axis, i], low[at, axis], size[at], cells[at, axis])
+    return first_cell[at] + where[0, i] + cells[at, 0] * (
+        where[1, i] + cells[at, 1] * where[2, i])
 
 
 @numba.njit(error_model='numpy')
@@ -272,18 +296,26 @@ def _in_cell_order(old_position, old_velocity, position, velocity, radius, centr
     state, used_real = take(reals, used_real, STATE_COLUMNS * count)
     state = state.reshape((count, STATE_COLUMNS))
     for k in range(count):
-        i = order[k]
-        sorted_bound[k, 0], sorted_bound[k, 1] = centre[0, i], centre[1, i]
-        sorted_bound[k, 2], sorted_bound[k, 3] = centre[2, i], reach[i]
-        sorted_cell[k, 0], sorted_cell[k, 1] = where[0, i], where[1, i]
-        sorted_cell[k, 2], sorted_cell[k, 3] = where[2, i], level[i]
-        for axis in range(3):
-            state[k, START_POSITION + axis] = old_position[axis, i]
-            state[k, END_POSITION + axis] = position[axis, i]
-            state[k, START_VELOCITY + axis] = old_velocity[axis, i]
-            state[k, END_VELOCITY + axis] = velocity[axis, i]
-        state[k, RADIUS] = radius[i]
+        place_in_cell_order(k, order[k], old_position, old_velocity, position, velocity,
+                            radius, centre, reach, level, where, sorted_bound, sorted_cell,
+                            state)
     return sorted_bound, sorted_cell, state, used_real, used_whole
+
+
+@numba.njit(error_model='numpy', inline='always')
+def place_in_cell_order(k, i, old_position, old_velocity, position, velocity, radius, centre,
+                        reach, level, where, sorted_bound, sorted_cell, state):
+    """Sphere i into row k of sorted_bound, sorted_cell and state (see _in_cell_order)."""
+    sorted_bound[k, 0], sorted_bound[k, 1] = centre[0, i], centre[1, i]
+    sorted_bound[k, 2], sorted_bound[k, 3] = centre[2, i], reach[i]
+    sorted_cell[k, 0], sorted_cell[k, 1] = where[0, i], where[1, i]
+    sorted_cell[k, 2], sorted_cell[k, 3] = where[2, i], level[i]
+    for axis in range(3):
+        state[k, START_POSITION + axis] = old_position[axis, i]
+        state[k, END_POSITION + axis] = position[axis, i]
+        state[k, START_VELOCITY + axis] = old_velocity[axis, i]
+        state[k, END_VELOCITY + axis] = velocity[axis, i]
+    state[k, RADIUS] = radius[i]
 
 
 @numba.njit(error_model='numpy')
@@ -299,32 +331,52 @@ def _candidate_pairs(sorted_cell, members, cells, first_cell, start, sorted_boun
     k = 0
     while k < count:
         x, y, z, at = sorted_cell[k, 0], sorted_cell[k, 1], sorted_cell[k, 2], sorted_cell[k, 3]
-        nx, ny, nz = cells[at, 0], cells[at, 1], cells[at, 2]
-        cell = first_cell[at] + x + nx * (y + ny * z)
+        used = cell_runs(x, y, z, at, cells, first_cell, start, runs)
+        cell = first_cell[at] + x + cells[at, 0] * (y + cells[at, 1] * z)
         end = start[cell + 1]  # this cell's spheres are rows k..end-1
-        x_low, x_high = max(x - 1, 0), min(x + 1, nx - 1)
-        # Half the neighbourhood, so each pair is met once, from the row met first: the rest
-        # of the own cell and the next along x (one run of memory), the row of three cells
-        # ahead in y, and the three rows ahead in z.
-        runs[0, 1] = start[cell + 1 + (x_high > x)]
-        used = 1
-        if y + 1 < ny:
-            row = first_cell[at] + nx * (y + 1 + ny * z)
-            runs[used, 0], runs[used, 1] = start[row + x_low], start[row + x_high + 1]
-            used += 1
-        for cy in range(max(y - 1, 0), min(y + 1, ny - 1) + 1 if z + 1 < nz else 0):
-            row = first_cell[at] + nx * (cy + ny * (z + 1))
-            runs[used, 0], runs[used, 1] = start[row + x_low], start[row + x_high + 1]
-            used += 1
         for i in range(k, end):
-            for finer in range(at):  # finer levels: the cells both reaches can span
-                if members[finer] > 0:
-                    total = _meet_finer(sorted_bound, i, finer, cells, first_cell, start,
-                                        largest, low, size, out, total)
-            total = _meet(sorted_bound, i, i + 1, runs[0, 1], out, total)
-            for r in range(1, used):
-                total = _meet(sorted_bound, i, runs[r, 0], runs[r, 1], out, total)
+            total = row_candidates(i, at, runs, used, sorted_bound, members, cells,
+                                   first_cell, start, largest, low, size, out, total)
         k = end
+    return total
+
+
+@numba.njit(error_model='numpy', inline='always')
+def cell_runs(x, y, z, at, cells, first_cell, start, runs):
+    """The runs of rows a sphere of cell (x, y, z) of level at meets in its own level,
+    into runs (5, 2): half the neighbourhood, so each pair is met once, from the row met
+    first: the rest of the own cell and the next along x (one run of memory: only its end,
+    runs[0, 1], is set), the row of three cells ahead in y, and the three rows ahead in z.
+    Returns how many runs."""
+    nx, ny, nz = cells[at, 0], cells[at, 1], cells[at, 2]
+    cell = first_cell[at] + x + nx * (y + ny * z)
+    x_low, x_high = max(x - 1, 0), min(x + 1, nx - 1)
+    runs[0, 1] = start[cell + 1 + (x_high > x)]
+    used = 1
+    if y + 1 < ny:
+        row = first_cell[at] + nx * (y + 1 + ny * z)
+        runs[used, 0], runs[used, 1] = start[row + x_low], start[row + x_high + 1]
+        used += 1
+    for cy in range(max(y - 1, 0), min(y + 1, ny - 1) + 1 if z + 1 < nz else 0):
+        row = first_cell[at] + nx * (cy + ny * (z + 1))
+        runs[used, 0], runs[used, 1] = start[row + x_low], start[row + x_high + 1]
+        used += 1
+    return used
+
+
+@numba.njit(error_model='numpy', inline='always')
+def row_candidates(i, at, runs, used, sorted_bound, members, cells, first_cell, start,
+                   largest, low, size, out, total):
+    """Row i's candidate pairs (its level at, its cell's runs, cell_runs'), written into
+    out from total on while they fit: the finer levels' spheres in the cells both reaches
+    can span, then its own level's in the runs. Returns the new total."""
+    for finer in range(at):
+        if members[finer] > 0:
+            total = _meet_finer(sorted_bound, i, finer, cells, first_cell, start, largest,
+                                low, size, out, total)
+    total = _meet(sorted_bound, i, i + 1, runs[0, 1], out, total)
+    for r in range(1, used):
+        total = _meet(sorted_bound, i, runs[r, 0], runs[r, 1], out, total)
     return total
 
 
@@ -363,60 +415,6 @@ def _meet(sorted_bound, i, first, last, out, total):
             out[0, total], out[1, total] = i, m
         total += gap2 <= reach_im * reach_im
     return total
-
-
-@numba.njit(error_model='numpy', inline='always')
-def _difference(state, i, j, column):
-    """Row i less row j of state (Contacts.state) in the three columns from column on."""
-    return (state[i, column] - state[j, column], state[i, column + 1] - state[j, column + 1],
-            state[i, column + 2] - state[j, column + 2])
-
-
-@numba.njit(error_model='numpy', inline='always')
-def _narrow_phase(state, i, j, dt):
-    """(normal (3-tuple), excess m/s, added m/s, closing m/s) of the spheres of rows i, j
-    of state (Contacts.state), whose bounding spheres met; see Contacts."""
-    reach = state[i, RADIUS] + state[j, RADIUS]
-    d0 = _difference(state, i, j, START_POSITION)
-    d1 = _difference(state, i, j, END_POSITION)
-    e = (d1[0] - d0[0], d1[1] - d0[1], d1[2] - d0[2])
-    start_gap = d0[0] * d0[0] + d0[1] * d0[1] + d0[2] * d0[2] - reach * reach
-    impact = 0.0  # touching (or overlapping) from the step's start
-    if start_gap > 0.0:
-        a = e[0] * e[0] + e[1] * e[1] + e[2] * e[2]
-        b = d0[0] * e[0] + d0[1] * e[1] + d0[2] * e[2]
-        discriminant = b * b - a * start_gap
-        if b < 0.0 and discriminant >= 0.0:
-            impact = start_gap / (-b + math.sqrt(discriminant))  # the smaller root, stably
-        else:
-            impact = math.inf  # not closing, or passing wide
-    if impact <= 1.0:
-        d = (d0[0] + impact * e[0], d0[1] + impact * e[1], d0[2] + impact * e[2])
-    else:
-        # Apart all step: a contact all the same (speculative), closing no faster than
-        # would shut its gap in the step. Impulses elsewhere in this step can set it
-        # moving toward each other: unseen, a light sphere struck from above was driven
-        # 2 cm into the one below in one step (a column of spheres landing in water). The
-        # broad phase's bounding spheres, which met, bound which pairs these are.
-        end_gap = math.sqrt(d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]) - reach
-        if end_gap <= _TOUCHING * reach:
-            impact = 1.0  # touching at the end (a row of spheres at rest): a contact
-        d = d1
-    length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-    if length > 0.0:
-        normal = (d[0] / length, d[1] / length, d[2] / length)
-    else:
-        normal = (0.0, 0.0, 1.0)  # centres at one point: any direction is as good
-    if impact > 1.0:
-        return normal, 0.0, 0.0, (length - reach) / dt
-    w0 = _difference(state, i, j, START_VELOCITY)
-    w1 = _difference(state, i, j, END_VELOCITY)
-    approach_start = -(w0[0] * normal[0] + w0[1] * normal[1] + w0[2] * normal[2])
-    approach_end = -(w1[0] * normal[0] + w1[1] * normal[1] + w1[2] * normal[2])
-    before = max(d0[0] * normal[0] + d0[1] * normal[1] + d0[2] * normal[2] - reach, 0.0)
-    past = max(reach - (d1[0] * normal[0] + d1[1] * normal[1] + d1[2] * normal[2]), 0.0)
-    at_impact = impact_speed(approach_start, approach_end, before, past, dt)
-    return normal, max(approach_end - at_impact, 0.0), approach_end - approach_start, 0.0
 
 
 def overlaps(position, radius):

@@ -1,0 +1,126 @@
+"""DeviceDetect: contact detection (contacts/detection.py's detect_contacts) on the GPU, from
+the spheres' arrays there, through detect_kernels.py; its result is what the CPU's is (the
+same pairs in the same order, the same facts; to the bit in numba's simulator).
+
+The sort by cell and the running sum of the rows' counts come from a library, not from code
+of ours: CuPy's stable sort and cumulative sum (thrust and CUB) on a GPU, numpy's in numba's
+simulator, where CuPy cannot run. CuPy takes numba's device arrays as they are (the CUDA
+array interface): nothing leaves the GPU.
+"""
+import math
+
+import numpy as np
+
+from . import load_cuda, simulated
+from .detect_kernels import KERNELS
+from ..contacts.detection import STATE_COLUMNS
+
+THREADS_PER_BLOCK = 128
+# What a refusal for want of CuPy tells the user to run.
+CUPY_COMMAND = 'pip install cupy-cuda13x'
+
+
+class SortLibrary:
+    """The library calls detection needs on device arrays: stable_order (the indices that
+    sort int64 keys, equal keys in their order), starts (where each of `buckets` keys begins
+    among the sorted keys) and offsets (an exclusive running sum)."""
+
+    def __init__(self, cuda):
+        self.cuda = cuda
+        self.cupy = None
+        if not simulated():
+            try:
+                import cupy
+            except ImportError as error:
+                raise ImportError(f'detection on the GPU sorts with CuPy ({error}): '
+                                  f'{CUPY_COMMAND}') from error
+            self.cupy = cupy
+
+    def stable_order(self, keys):
+        if self.cupy is None:
+            return self.cuda.to_device(np.argsort(keys.copy_to_host(), kind='stable'))
+        return self.cuda.as_cuda_array(self.cupy.argsort(self.cupy.asarray(keys)))
+
+    def starts(self, keys, order, buckets):
+        if self.cupy is None:
+            ordered = keys.copy_to_host()[order.copy_to_host()]
+            return self.cuda.to_device(np.searchsorted(ordered, np.arange(buckets + 1)))
+        cupy = self.cupy
+        ordered = cupy.asarray(keys)[cupy.asarray(order)]
+        return self.cuda.as_cuda_array(cupy.searchsorted(
+            ordered, cupy.arange(buckets + 1, dtype=ordered.dtype)).astype(cupy.int64))
+
+    def offsets(self, counts):
+        """(offsets: where each item's share begins, the exclusive running sum of int64
+        counts, on the device; total, an int)."""
+        if self.cupy is None:
+            counts = counts.copy_to_host()
+            ends = np.cumsum(counts)
+            return self.cuda.to_device(ends - counts), int(ends[-1]) if ends.size else 0
+        counts = self.cupy.asarray(counts)
+        ends = self.cupy.cumsum(counts)
+        total = int(ends[-1]) if ends.size else 0
+        return self.cuda.as_cuda_array(ends - counts), total
+
+
+def _grid(count):
+    """(blocks, threads) of a launch of one thread an item over count items."""
+    threads = THREADS_PER_BLOCK
+    return max(1, math.ceil(count / threads)), threads
+
+
+class DeviceDetect:
+    """detect_contacts on the GPU. detect() takes the step's device arrays and returns the
+    Contacts' arrays on the device, by name."""
+
+    _compiled = {}  # kernel name -> the kernel, shared by every DeviceDetect
+
+    def __init__(self):
+        self.cuda = load_cuda()
+        self.library = SortLibrary(self.cuda)
+        for kernel in KERNELS:
+            if kernel.__name__ not in self._compiled:
+                self._compiled[kernel.__name__] = self.cuda.jit(kernel)
+        self.k = self._compiled
+
+    def detect(self, old_position, old_velocity, position, velocity, radius, dt):
+        """{pairs (2, m) int64, facts (6, m): normal (3), excess, added, closing; order (n,)
+        int64; state (n, STATE_COLUMNS)} as detect_contacts makes them (Contacts), from
+        (3, n) device arrays of the step's start and end and radius (n,)."""
+        cuda, k, count = self.cuda, self.k, radius.shape[0]
+        spheres = _grid(count)
+        centre, reach = cuda.device_array((3, count)), cuda.device_array(count)
+        smallest = cuda.to_device(np.array([math.inf]))
+        k['bounds_kernel'][spheres](old_position, position, radius, centre, reach, smallest)
+        level, top = cuda.device_array(count, np.int64), cuda.to_device(np.zeros(1, np.int64))
+        k['levels_kernel'][spheres](reach, smallest, level, top)
+        levels = int(top.copy_to_host()[0]) + 1
+        members = cuda.to_device(np.zeros(levels, np.int64))
+        largest = cuda.to_device(np.zeros(levels))
+        low = cuda.to_device(np.full((levels, 3), math.inf))
+        high = cuda.to_device(np.full((levels, 3), -math.inf))
+        k['extents_kernel'][spheres](centre, reach, level, members, largest, low, high)
+        size, cells = cuda.to_device(np.zeros(levels)), cuda.to_device(np.ones((levels, 3),
+                                                                               np.int64))
+        first_cell = cuda.to_device(np.zeros(levels + 1, np.int64))
+        k['grids_kernel'][1, 1](members, largest, low, high, size, cells, first_cell)
+        where, home = cuda.device_array((3, count), np.int64), cuda.device_array(count, np.int64)
+        k['homes_kernel'][spheres](centre, level, low, size, cells, first_cell, where, home)
+        order = self.library.stable_order(home)
+        start = self.library.starts(home, order, int(first_cell.copy_to_host()[levels]))
+        sorted_bound = cuda.device_array((count, 4))
+        sorted_cell = cuda.device_array((count, 4), np.int64)
+        state = cuda.device_array((count, STATE_COLUMNS))
+        k['place_kernel'][spheres](old_position, old_velocity, position, velocity, radius,
+                                   centre, reach, level, where, order, sorted_bound,
+                                   sorted_cell, state)
+        grids = (sorted_cell, members, cells, first_cell, start, sorted_bound, largest, low,
+                 size)
+        counts = cuda.device_array(count, np.int64)
+        k['count_kernel'][spheres](*grids, counts, cuda.device_array((2, 0), np.int64))
+        offsets, total = self.library.offsets(counts)  # where each row's pairs begin
+        candidates = cuda.device_array((2, total), np.int64)
+        k['write_kernel'][spheres](*grids, counts, offsets, candidates)
+        facts = cuda.device_array((6, total))
+        k['narrow_kernel'][_grid(total)](state, candidates, dt, facts)
+        return {'pairs': candidates, 'facts': facts, 'order': order, 'state': state}
