@@ -329,39 +329,48 @@ def may_land(fastest, threshold):
 def hold_up(ends, facts, floor_member, floor_gap, velocity, moved, inverse_h, threshold,
             supported):
     """_support_sweep's sweep bottom up, once may_land (its arguments): what the floor holds
-    (hold_on_floor), then each contact (hold_up_contact), in order."""
+    (hold_on_floor), then each contact (hold_up_contacts), in order."""
     supported[:] = False
-    for f in range(floor_member.size):
-        hold_on_floor(floor_member, floor_gap, f, velocity, moved, threshold, supported)
-    for q in range(ends.shape[0]):
-        hold_up_contact(ends, facts, q, velocity, moved, inverse_h, threshold, supported)
+    hold_on_floor(floor_member, floor_gap, 0, floor_member.size, 1, velocity, moved,
+                  threshold, supported)
+    hold_up_contacts(ends, facts, 0, ends.shape[0], 1, velocity, moved, inverse_h, threshold,
+                     supported)
+
+
+# The sweep's two loops take a range, so that a GPU thread sweeps its share with them:
+# their bodies as functions of one contact, inlined into the loops, made the step 4-13 %
+# slower in node_rate's scene (compare_commits, the same numbers).
+@numba.njit(error_model='numpy', inline='always')
+def hold_on_floor(floor_member, floor_gap, start, stop, step, velocity, moved, threshold,
+                  supported):
+    """Whether the floor holds up the spheres of floor contacts start, start + step, ...
+    (below stop), into supported."""
+    for f in range(start, stop, step):
+        k = floor_member[f]
+        # Lifting off (rising faster than threshold): holds nothing up.
+        supported[k] = floor_gap[f] + moved[k, 2] <= _HOLDING_GAP and velocity[k, 2] <= threshold
 
 
 @numba.njit(error_model='numpy', inline='always')
-def hold_on_floor(floor_member, floor_gap, f, velocity, moved, threshold, supported):
-    """Whether the floor holds up floor contact f's sphere, into supported."""
-    k = floor_member[f]
-    # Lifting off (rising faster than threshold): holds nothing up.
-    supported[k] = floor_gap[f] + moved[k, 2] <= _HOLDING_GAP and velocity[k, 2] <= threshold
-
-
-@numba.njit(error_model='numpy', inline='always')
-def hold_up_contact(ends, facts, q, velocity, moved, inverse_h, threshold, supported):
-    """Contact q of the sweep: a held-up lower sphere holds up the upper one touching it,
-    whose approach beyond the gap / h stops. Reads both spheres, writes the upper's
-    velocity and supported (layers.sweep_waves: which contacts may go at once)."""
-    upper, lower = ends[q, 0], ends[q, 1]
-    if not supported[lower]:
-        return
-    nx, ny, nz = facts[q, 0], facts[q, 1], facts[q, 2]
-    gap = facts[q, 3] + ((moved[upper, 0] - moved[lower, 0]) * nx
-                         + (moved[upper, 1] - moved[lower, 1]) * ny
-                         + (moved[upper, 2] - moved[lower, 2]) * nz)
-    supported[upper] = supported[upper] or gap <= _HOLDING_GAP
-    approach = -((velocity[upper, 0] - velocity[lower, 0]) * nx
-                 + (velocity[upper, 1] - velocity[lower, 1]) * ny
-                 + (velocity[upper, 2] - velocity[lower, 2]) * nz) - max(gap, 0.0) * inverse_h
-    if approach > threshold:
-        velocity[upper, 0] += approach * nx
-        velocity[upper, 1] += approach * ny
-        velocity[upper, 2] += approach * nz
+def hold_up_contacts(ends, facts, start, stop, step, velocity, moved, inverse_h, threshold,
+                     supported):
+    """Contacts start, start + step, ... (below stop) of the sweep, in order: a held-up
+    lower sphere holds up the upper one touching it, whose approach beyond the gap / h
+    stops. Each reads both spheres and writes the upper's velocity and supported
+    (layers.sweep_waves: which contacts may go at once)."""
+    for q in range(start, stop, step):
+        upper, lower = ends[q, 0], ends[q, 1]
+        if not supported[lower]:
+            continue
+        nx, ny, nz = facts[q, 0], facts[q, 1], facts[q, 2]
+        gap = facts[q, 3] + ((moved[upper, 0] - moved[lower, 0]) * nx
+                             + (moved[upper, 1] - moved[lower, 1]) * ny
+                             + (moved[upper, 2] - moved[lower, 2]) * nz)
+        supported[upper] = supported[upper] or gap <= _HOLDING_GAP
+        approach = -((velocity[upper, 0] - velocity[lower, 0]) * nx
+                     + (velocity[upper, 1] - velocity[lower, 1]) * ny
+                     + (velocity[upper, 2] - velocity[lower, 2]) * nz) - max(gap, 0.0) * inverse_h
+        if approach > threshold:
+            velocity[upper, 0] += approach * nx
+            velocity[upper, 1] += approach * ny
+            velocity[upper, 2] += approach * nz

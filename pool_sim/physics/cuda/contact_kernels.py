@@ -20,7 +20,7 @@ Two ways to launch the same passes (DeviceSolve's `mode`):
 import numba
 
 from ..contacts.soft_contact import carry_contact, restitute_contact, solve_contact
-from ..contacts.soft_step import change_member, hold_on_floor, hold_up_contact, may_land, \
+from ..contacts.soft_step import change_member, hold_on_floor, hold_up_contacts, may_land, \
     move_member, speed_squared
 from . import load_cuda
 
@@ -79,16 +79,16 @@ def support_share(part, ends, facts, floor_member, floor_gap, velocity, moved, i
                   threshold, supported, first, last, thread, threads):
     """One thread's share of a part of the support sweep (soft_step.hold_up): 0, supported
     cleared; 1, what the floor holds (hold_on_floor); 2, a wave's contacts, first..last - 1
-    of ends and facts in layers.sweep_waves' order (hold_up_contact)."""
+    of ends and facts in layers.sweep_waves' order (hold_up_contacts)."""
     if part == 0:
         for k in range(thread, supported.size, threads):
             supported[k] = False
     elif part == 1:
-        for f in range(thread, floor_member.size, threads):
-            hold_on_floor(floor_member, floor_gap, f, velocity, moved, threshold, supported)
+        hold_on_floor(floor_member, floor_gap, thread, floor_member.size, threads, velocity,
+                      moved, threshold, supported)
     else:
-        for q in range(first + thread, last, threads):
-            hold_up_contact(ends, facts, q, velocity, moved, inverse_h, threshold, supported)
+        hold_up_contacts(ends, facts, first + thread, last, threads, velocity, moved,
+                         inverse_h, threshold, supported)
 
 def contacts_kernel(kind, rows, solve_order, velocity, moved, inverse_mass, bounces, first,
                     last, serial, use_bias, hold_apart, scalars):
