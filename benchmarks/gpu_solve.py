@@ -1,6 +1,7 @@
-"""The soft step's solve stage on the GPU (physics/cuda/device_solve.py) against the CPU's:
-a step's substeps and restitution pass on the rows soft_step.contact_rows makes, at rest
-and landing, by size. benchmarks/gpu.py runs it (--solve-sizes); alone:
+"""Collisions on the GPU against the CPU: contact detection (physics/cuda/device_detect.py)
+and the soft step's solve stage (device_solve.py: a step's substeps and restitution pass
+on the rows soft_step.contact_rows makes), at rest and landing, by size. benchmarks/gpu.py
+runs it (--solve-sizes); alone:
 
     python3 -m benchmarks.gpu_solve [--sizes 100000 1000000] [--out results/gpu]
 
@@ -11,7 +12,8 @@ The scene: equal spheres (radius RADIUS, density DENSITY) on a square lattice, t
 layers from the default pool's floor up, with the default effects and `collisions`
 (soft_step); at rest, or landing (layer k falling at (k + 1) x LANDING_SPEED, so that every
 layer closes on the one below and the bottom one on the floor). From that state, as the
-step would: detection and contact_rows (on the CPU, not timed: they have no GPU form yet).
+step would: detection, on the GPU and on the CPU (one thread), timed, and whether the two
+found the same pairs; then contact_rows (on the CPU, not timed: it has no GPU form yet).
 Then, every figure a median of --repeats, each from the same rows (copied on the device):
 the GPU's solve in each of DeviceSolve's modes (a launch per pass and colour, or one
 cooperative launch) and the CPU's (soft_step._substeps and restitution_pass, one thread, up
@@ -25,10 +27,12 @@ import time
 import numpy as np
 
 from benchmarks.common import provenance, write_csv
-from benchmarks.solve_passes import prepared_from
+from benchmarks.solve_passes import rows_of, step_inputs
 from pool_sim.physics import DEFAULT_EFFECTS, Scene, Spheres
 from pool_sim.physics.contacts import soft_step
+from pool_sim.physics.contacts.detection import detect_contacts
 from pool_sim.physics.contacts.layers import sweep_waves
+from pool_sim.physics.cuda.device_detect import DeviceDetect
 from pool_sim.physics.cuda.device_solve import DeviceSolve, MODES, colour_bounds
 
 RADIUS = 0.01  # m
@@ -60,11 +64,40 @@ def pile(count, landing):
                    external_force=np.zeros((3, count)))
 
 
-def prepared_pile(count, landing):
-    """(soft_step.Prepared, settings, dt, threshold, restitution) of the pile's first step."""
+def pile_step(count, landing):
+    """solve_passes.step_inputs of the pile's first step."""
     scene = Scene({'sphere_names': ['s0'], 'contact_solver': 'soft_step',
                    'effects': [*DEFAULT_EFFECTS, 'collisions']})
-    return prepared_from(scene, 0.0, initial_spheres=pile(count, landing))
+    return step_inputs(scene, 0.0, initial_spheres=pile(count, landing))
+
+
+def detection_timing(inputs, repeats):
+    """{gpu_detect_ms, cpu_detect_ms: the medians of DeviceDetect's and detect_contacts'
+    (one thread) times; detect_same_pairs: whether they found the same pairs in the same
+    order; detect_normal_gap: the largest difference of their normals} of a step."""
+    colliding, _, state, after, reals, wholes = inputs
+    radius, dt = colliding.spheres.radius, colliding.max_step
+    detector = DeviceDetect()
+    arrays = [detector.cuda.to_device(np.ascontiguousarray(array))
+              for array in (*state, *after, radius)]
+    found = {}
+
+    def on_gpu():
+        found.update(detector.detect(*arrays, dt))
+        detector.cuda.synchronize()
+
+    def on_cpu():
+        found['cpu'] = detect_contacts(*state, *after, radius, dt, reals, wholes)[0]
+    row = {}
+    for name, run in (('gpu_detect_ms', on_gpu), ('cpu_detect_ms', on_cpu)):
+        run()  # compiles
+        row[name] = median_of((lambda: None, run), repeats) * 1e3
+    pairs = found['pairs'].copy_to_host()
+    row['detect_same_pairs'] = bool(np.array_equal(pairs, found['cpu'].pairs))
+    if row['detect_same_pairs']:
+        row['detect_normal_gap'] = float(np.max(np.abs(
+            found['facts'].copy_to_host()[:3] - found['cpu'].normal), initial=0.0))
+    return row
 
 
 def median_of(function, repeats):
@@ -126,12 +159,17 @@ def cpu_timing(ready, scalars, repeats):
 
 def solve_row(count, landing, repeats, cpu_max):
     """The figures of one scene at one size (a dict: the CSV's row)."""
-    ready, *scalars = prepared_pile(count, landing)
+    inputs = pile_step(count, landing)
+    try:
+        detected = detection_timing(inputs, repeats)
+    except Exception as error:  # noqa: BLE001 (one run on a lent GPU: keep the rest)
+        detected = {'detect_failed': f'{type(error).__name__}: {error}'[:200].replace(',', ';')}
+    ready, *scalars = rows_of(*inputs)
     bounds, serial = colour_bounds(ready.colour_start)
     _, waves = sweep_waves(ready.support[0], ready.sphere.size)
     row = {'scene': SCENES[landing], 'spheres': count, 'contacts': ready.rows.shape[0],
            'colours': bounds.size - 1, 'serial_colour': serial >= 0,
-           'support_waves': waves.size - 1}
+           'support_waves': waves.size - 1, **detected}
     if not ready.rows.shape[0]:
         return row
     results = {}
@@ -177,14 +215,16 @@ def measure(sizes, repeats, cpu_max):
             rows.append(solve_row(count, landing, repeats, cpu_max))
             print(rows[-1], flush=True)
     text = '\n\n'.join([
-        "## The soft step's solve stage (benchmarks/gpu_solve.py)",
+        '## Collisions on the GPU: detection and the solve stage (benchmarks/gpu_solve.py)',
         f'A step\'s substeps and restitution pass on the rows of a lattice pile (radius '
         f'{RADIUS} m, {DENSITY:g} kg/m^3, from the floor up; landing: layer k closing at '
         f'{LANDING_SPEED} m/s on the one below), its first step; medians of {repeats}. '
         'launches: a launch per pass and colour; cooperative: one launch, the grid synced '
         'between passes; cpu_one_core: soft_step._substeps and restitution_pass. The gaps '
         '(m/s, m): the largest difference of the GPU\'s velocities and moves from the '
-        "CPU's. Detection and the rows are made on the CPU and not timed.",
+        "CPU's. Detection: gpu_detect against cpu_detect (detect_contacts, one thread), "
+        'whether the two found the same pairs in the same order, and the largest '
+        'difference of their normals. The rows are made on the CPU and not timed.',
         table(rows)])
     return rows, text
 

@@ -51,6 +51,14 @@ def prepared_from(colliding_scene, seconds, initial_spheres=None):
     scene's state (its spheres, or initial_spheres) after `seconds`, its memory as its last
     step left it; the arguments of contact_rows as physics/stepper.py's run_steps passes
     them."""
+    return rows_of(*step_inputs(colliding_scene, seconds, initial_spheres))
+
+
+def step_inputs(colliding_scene, seconds, initial_spheres=None):
+    """(colliding: the scene's Simulation after `seconds`; memory: its contact memory as
+    its last step left it, copies; state, after: (position, velocity) at the next step's
+    start and where the smooth step ends it, detect_contacts' input; reals, wholes: its
+    workspace)."""
     effects = [name for name in colliding_scene['effects'] if name != 'collisions']
     colliding = Simulation(colliding_scene, initial_spheres=initial_spheres)
     smooth = Simulation(colliding_scene.with_values(effects=effects),
@@ -61,7 +69,12 @@ def prepared_from(colliding_scene, seconds, initial_spheres=None):
     smooth.spheres.position[:] = colliding.spheres.position
     smooth.spheres.velocity[:] = colliding.spheres.velocity
     _, _, (state, after, reals, wholes), _ = contacts_of(colliding, smooth)
-    spheres, effects = colliding.spheres, colliding.scene['effects']
+    return colliding, memory, state, after, reals, wholes
+
+
+def rows_of(colliding, memory, state, after, reals, wholes):
+    """prepared_from's tuple, from step_inputs'."""
+    spheres, effects, dt = colliding.spheres, colliding.scene['effects'], colliding.max_step
     contacts, used_real, used_whole = detect_contacts(*state, *after, spheres.radius, dt,
                                                       reals, wholes)
     _, _, pool, contact, settings = colliding._constants

@@ -67,19 +67,12 @@ def cases():
 def detection_input(scene, seconds):
     """{old_position, old_velocity, position, velocity, radius, dt}: what soft_step's
     detection takes in the scene's step after `seconds` (the smooth step's end)."""
-    from benchmarks.contact_stages import contacts_of
-    from pool_sim.physics import Simulation
-    effects = [name for name in scene['effects'] if name != 'collisions']
-    colliding, smooth = Simulation(scene), Simulation(scene.with_values(effects=effects))
-    dt = colliding.max_step
-    colliding.run(int(round(seconds / dt)), dt)
-    smooth.spheres.position[:] = colliding.spheres.position
-    smooth.spheres.velocity[:] = colliding.spheres.velocity
-    _, _, ((old_position, old_velocity), (position, velocity), _, _), _ = contacts_of(
-        colliding, smooth)
+    from benchmarks.solve_passes import step_inputs
+    colliding, _, (old_position, old_velocity), (position, velocity), _, _ = step_inputs(
+        scene, seconds)
     return {'old_position': old_position, 'old_velocity': old_velocity, 'position': position,
             'velocity': velocity, 'radius': colliding.spheres.radius.copy(),
-            'dt': np.float64(dt)}
+            'dt': np.float64(colliding.max_step)}
 
 
 def detection_cases():

@@ -205,7 +205,7 @@ def test_the_gpu_benchmark_runs_in_the_simulator_and_writes_its_tables(tmp_path)
     assert len(rows) == 3 and rows[0].startswith('spheres,one_step_per_launch_ns')
     # The solve stage: both scenes, both modes, the CPU's numbers to the bit (a simulator
     # does not fuse multiplies and adds).
-    assert "## The soft step's solve stage" in text
+    assert '## Collisions on the GPU: detection and the solve stage' in text
     solve = (tmp_path / 'gpu_solve.csv').read_text().splitlines()
     assert len(solve) == 3 and solve[1].startswith('at rest,12,') and solve[2].startswith(
         'landing,12,')
@@ -213,5 +213,7 @@ def test_the_gpu_benchmark_runs_in_the_simulator_and_writes_its_tables(tmp_path)
     for line in solve[1:]:
         row = dict(zip(header, line.split(',')))
         assert int(row['contacts']) > 12 and float(row['cooperative_ms']) > 0.0
+        assert row['detect_same_pairs'] == 'True' and float(row['detect_normal_gap']) == 0.0
+        assert float(row['gpu_detect_ms']) > 0.0 and float(row['cpu_detect_ms']) > 0.0
         assert all(float(row[f'{mode}_{what}_gap']) == 0.0 for mode in ('launches',
                    'cooperative') for what in ('velocity', 'moved'))
