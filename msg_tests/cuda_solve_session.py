@@ -76,11 +76,15 @@ def detection_input(scene, seconds):
 
 
 def detection_cases():
-    """{label: detection_input}: the column landing and at rest, and landing with radii from
-    8 mm (bounding spheres in more than one level)."""
+    """{label: detection_input}: the column landing and at rest, landing with radii from
+    8 mm (bounding spheres in more than one level), and ten spheres far apart (no pairs)."""
+    apart = np.stack([np.arange(10.0) * 0.5 - 2.0, np.zeros(10), np.zeros(10)])
     return {'detect_landing': detection_input(column_scene(), 0.3),
             'detect_rest': detection_input(column_scene(), 4.0),
-            'detect_levels': detection_input(column_scene(smallest_radius=0.008), 0.3)}
+            'detect_levels': detection_input(column_scene(smallest_radius=0.008), 0.3),
+            'detect_apart': {'old_position': apart, 'old_velocity': np.zeros((3, 10)),
+                             'position': apart.copy(), 'velocity': np.zeros((3, 10)),
+                             'radius': np.full(10, 0.1), 'dt': np.float64(0.005)}}
 
 
 def cpu_detect(case):

@@ -102,11 +102,13 @@ def test_the_gpu_solve_leaves_what_the_cpu_solve_leaves_bit_for_bit(solved, labe
         assert np.array_equal(gpu, value), (name, float(np.max(np.abs(gpu - value))))
 
 
-@pytest.mark.parametrize('label', ['detect_landing', 'detect_rest', 'detect_levels'])
+@pytest.mark.parametrize('label', ['detect_landing', 'detect_rest', 'detect_levels',
+                                   'detect_apart'])
 def test_detection_on_the_gpu_finds_the_cpu_s_contacts_bit_for_bit(solved, label):
     chosen, on_gpu = solved
     on_cpu = cpu_detect(chosen[label])
-    assert on_cpu['pairs'].shape[1] >= 10
+    found = on_cpu['pairs'].shape[1]
+    assert (found == 0) if label == 'detect_apart' else (found >= 10)
     for name, value in on_cpu.items():
         gpu = on_gpu[f'{label}.{name}']
         if name == 'state':  # its columns past RADIUS are padding, never written
@@ -123,6 +125,9 @@ def test_the_detection_cases_exercise_what_they_claim(solved):
             case['old_position'], case['position'], case['radius'], np.empty(0),
             np.empty(0, dtype=np.int64))
         assert found == levels and np.all(np.bincount(level) >= 10), label
+        if levels == 2:  # pairs across the levels: a finer level's cells are searched
+            spheres = cpu_detect(case)['order'][cpu_detect(case)['pairs']]
+            assert np.any(level[spheres[0]] != level[spheres[1]])
     # Landing: spheres swept far in the step (bounding spheres larger than at rest).
     speed = np.linalg.norm(chosen['detect_landing']['velocity'], axis=0)
     assert speed.max() > 1.0
