@@ -52,6 +52,7 @@ class DeviceSolve:
             if kernel.__name__ not in self._compiled:
                 self._compiled[kernel.__name__] = self.cuda.jit(kernel)
         self.kernels = self._compiled
+        self._configured = {}  # (kernel name, blocks, threads) -> its launch configuration
 
     def upload(self, ready):
         """The device's copies of a Prepared's arrays (a dict by name)."""
@@ -108,18 +109,24 @@ class DeviceSolve:
                      max(1, overload.max_cooperative_grid_blocks(threads)))
         kernel[blocks, threads](*arguments)
 
+    def _launch(self, name, count):
+        """Kernel `name` configured for one thread an item over count items (at least
+        one), made once per configuration: kernel[blocks, threads] makes one on every call."""
+        threads = _threads_for(count)
+        key = (name, max(1, math.ceil(count / threads)), threads)
+        configured = self._configured.get(key)
+        if configured is None:
+            configured = self._configured[key] = self.kernels[name][key[1], key[2]]
+        return configured
+
     def _launches(self, arrays, bounds, serial, fastest, substeps, h, scalars):
-        a, k = arrays, self.kernels
+        a, launch = arrays, self._launch
         members = a['velocity'].shape[0] - 1
-        member_grid = (max(1, math.ceil(members / _threads_for(members))),
-                       _threads_for(members))
 
         def colours(kind, use_bias, hold_apart):
             for c in range(bounds.size - 1):
                 first, last = int(bounds[c]), int(bounds[c + 1])
-                count = 1 if c == serial else last - first
-                threads = _threads_for(count)
-                k['contacts_kernel'][math.ceil(count / threads), threads](
+                launch('contacts_kernel', 1 if c == serial else last - first)(
                     kind, a['rows'], a['solve_order'], a['velocity'], a['moved'],
                     a['inverse_mass'], a['bounces'], first, last, c == serial, use_bias,
                     hold_apart, scalars)
@@ -128,17 +135,15 @@ class DeviceSolve:
         support_parts = [(0, 0, 0), (1, 0, 0)] + [(2, int(waves[w]), int(waves[w + 1]))
                                                    for w in range(waves.size - 1)]
         for substep in range(substeps):
-            k['members_kernel'][member_grid](False, a['velocity'], a['change'], a['moved'], h)
+            launch('members_kernel', members)(False, a['velocity'], a['change'], a['moved'], h)
             colours(CARRY, True, True)
             colours(SOLVE, True, True)
-            k['fastest_kernel'][member_grid](a['velocity'], fastest, substep)
+            launch('fastest_kernel', members)(a['velocity'], fastest, substep)
             for part, first, last in support_parts:
-                count = max(1, (members, floors, last - first)[part])
-                threads = _threads_for(count)
-                k['support_kernel'][math.ceil(count / threads), threads](
+                launch('support_kernel', (members, floors, last - first)[part])(
                     part, a['ends'], a['facts'], a['floor_member'], a['floor_gap'],
                     a['velocity'], a['moved'], scalars[1], scalars[2], a['supported'],
                     fastest, substep, first, last)
-            k['members_kernel'][member_grid](True, a['velocity'], a['change'], a['moved'], h)
+            launch('members_kernel', members)(True, a['velocity'], a['change'], a['moved'], h)
             colours(SOLVE, False, substep < substeps - 1)
         colours(RESTITUTE, False, False)
