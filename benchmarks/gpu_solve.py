@@ -163,7 +163,7 @@ def solve_row(count, landing, repeats, cpu_max):
     try:
         detected = detection_timing(inputs, repeats)
     except Exception as error:  # noqa: BLE001 (one run on a lent GPU: keep the rest)
-        detected = {'detect_failed': f'{type(error).__name__}: {error}'[:200].replace(',', ';')}
+        detected = {'detect_failed': failure(error)}
     ready, *scalars = rows_of(*inputs)
     bounds, serial = colour_bounds(ready.colour_start)
     _, waves = sweep_waves(ready.support[0], ready.sphere.size)
@@ -177,7 +177,7 @@ def solve_row(count, landing, repeats, cpu_max):
         try:
             seconds, results[mode] = gpu_timing(ready, mode, scalars, repeats)
         except Exception as error:  # noqa: BLE001 (one run on a lent GPU: keep the rest)
-            row[f'{mode}_failed'] = f'{type(error).__name__}: {error}'[:200].replace(',', ';')
+            row[f'{mode}_failed'] = failure(error)
             continue
         row[f'{mode}_ms'] = seconds * 1e3
         row[f'{mode}_ns_per_sphere'] = seconds / count * 1e9
@@ -207,14 +207,36 @@ def table(rows):
                      + ['| ' + ' | '.join(r) + ' |' for r in shown])
 
 
-def measure(sizes, repeats, cpu_max):
-    """(rows, the section of gpu.md they make)."""
+def failure(error):
+    """An exception as a table cell: its type and message, on one line, no separators."""
+    text = f'{type(error).__name__}: {error}'[:200]
+    return ' '.join(text.split()).replace(',', ';').replace('|', '/')
+
+
+def measure(sizes, repeats, cpu_max, out, command):
+    """(rows, the section of gpu.md they make). gpu_solve.csv and gpu_solve.md (command's
+    provenance) are written into the folder out after each row, so that a run cut short
+    (a lent GPU's time runs out) keeps what it measured; a row that fails says why."""
+    out = pathlib.Path(out)
+    out.mkdir(parents=True, exist_ok=True)
     rows = []
     for count in sizes:
         for landing in (False, True):
-            rows.append(solve_row(count, landing, repeats, cpu_max))
+            try:
+                rows.append(solve_row(count, landing, repeats, cpu_max))
+            except Exception as error:  # noqa: BLE001 (one run on a lent GPU: keep the rest)
+                rows.append({'scene': SCENES[landing], 'spheres': count,
+                             'failed': failure(error)})
             print(rows[-1], flush=True)
-    text = '\n\n'.join([
+            write_csv(uniform(rows), out / 'gpu_solve.csv')
+            (out / 'gpu_solve.md').write_text(
+                provenance(command) + '\n\n' + section(rows, repeats) + '\n')
+    return rows, section(rows, repeats)
+
+
+def section(rows, repeats):
+    """The markdown section of rows (solve_row's)."""
+    return '\n\n'.join([
         '## Collisions on the GPU: detection and the solve stage (benchmarks/gpu_solve.py)',
         f'A step\'s substeps and restitution pass on the rows of a lattice pile (radius '
         f'{RADIUS} m, {DENSITY:g} kg/m^3, from the floor up; landing: layer k closing at '
@@ -226,7 +248,6 @@ def measure(sizes, repeats, cpu_max):
         'whether the two found the same pairs in the same order, and the largest '
         'difference of their normals. The rows are made on the CPU and not timed.',
         table(rows)])
-    return rows, text
 
 
 def main():
@@ -237,12 +258,9 @@ def main():
     parser.add_argument('--cpu-max', type=int, default=CPU_MAX)
     parser.add_argument('--out', default='results/gpu')
     arguments = parser.parse_args()
-    rows, text = measure(arguments.sizes, arguments.repeats, arguments.cpu_max)
-    out = pathlib.Path(arguments.out)
-    out.mkdir(parents=True, exist_ok=True)
-    write_csv(uniform(rows), out / 'gpu_solve.csv')
     command = 'python3 -m benchmarks.gpu_solve --sizes ' + ' '.join(map(str, arguments.sizes))
-    (out / 'gpu_solve.md').write_text(provenance(command) + '\n\n' + text + '\n')
+    _, text = measure(arguments.sizes, arguments.repeats, arguments.cpu_max, arguments.out,
+                      command)
     print(text)
 
 

@@ -138,24 +138,46 @@ def read_cases(path):
     return chosen
 
 
+# The orders the simulator's threads take their indices in: the simulator runs a block's
+# threads much as in index order, which is also the CPU's order, so a kernel racing two
+# threads of a colour (or a wave) would still give the CPU's numbers; numbered backwards,
+# it would not (a review's mutations: all contacts in one launch, all waves in one).
+THREAD_ORDERS = ('forward', 'backward')
+
+
+def numbered(order):
+    """The simulator's cuda.grid, numbering threads in order ('forward' or 'backward')."""
+    from numba.cuda.simulator import kernelapi
+    module = kernelapi.FakeCUDAModule
+    forward = module.forward_grid = getattr(module, 'forward_grid', module.grid)
+
+    def backward(cuda_module, dimensions):
+        return cuda_module.gridsize(dimensions) - 1 - forward(cuda_module, dimensions)
+    module.grid = forward if order == 'forward' else backward
+
+
 def main(cases_path, out_path):
     from pool_sim.physics.cuda import load_cuda
     from pool_sim.physics.cuda.device_detect import DeviceDetect
     from pool_sim.physics.cuda.device_solve import DeviceSolve, MODES
     results = {}
-    for label, case in read_cases(cases_path).items():
-        if label.startswith('detect'):
-            cuda = load_cuda()
-            found = DeviceDetect().detect(*(cuda.to_device(np.ascontiguousarray(case[name]))
-                                            for name in DETECTION), float(case['dt']))
-            results.update({f'{label}.{name}': value.copy_to_host()
-                            for name, value in found.items()})
-            continue
-        for mode in MODES:
-            left = DeviceSolve(mode).run(ready_of(case), case['settings'], float(case['dt']),
-                                         float(case['threshold']), float(case['restitution']))
-            results.update({f'{label}.{mode}.{name}': value
-                            for name, value in zip(OUTPUTS, left)})
+    cuda = load_cuda()
+    for order in THREAD_ORDERS:
+        numbered(order)
+        for label, case in read_cases(cases_path).items():
+            if label.startswith('detect'):
+                found = DeviceDetect().detect(
+                    *(cuda.to_device(np.ascontiguousarray(case[name])) for name in DETECTION),
+                    float(case['dt']))
+                results.update({f'{label}.{order}.{name}': value.copy_to_host()
+                                for name, value in found.items()})
+                continue
+            for mode in MODES:
+                left = DeviceSolve(mode).run(ready_of(case), case['settings'],
+                                             float(case['dt']), float(case['threshold']),
+                                             float(case['restitution']))
+                results.update({f'{label}.{mode}.{order}.{name}': value
+                                for name, value in zip(OUTPUTS, left)})
     np.savez(out_path, **results)
 
 

@@ -14,7 +14,8 @@ import numba
 import numpy as np
 import pytest
 
-from cuda_solve_session import cpu_detect, cpu_solve, OUTPUTS, read_cases, write_cases
+from cuda_solve_session import cpu_detect, cpu_solve, OUTPUTS, read_cases, THREAD_ORDERS, \
+    write_cases
 from pool_sim.physics.contacts.colouring import COLOURS
 from pool_sim.physics.contacts.detection import _bounding_spheres, RADIUS
 from pool_sim.physics.contacts.layers import sweep_waves
@@ -50,12 +51,12 @@ DETECT_SAMPLES = {
     'place_kernel': (AXES, AXES, AXES, AXES, REAL, AXES, REAL, WHOLE, AXES_WHOLE, WHOLE,
                      np.zeros((2, 4)), np.zeros((2, 4), np.int64), ROWS),
     'count_kernel': GRIDS + (WHOLE, PAIRS),
-    'write_kernel': GRIDS + (WHOLE, WHOLE, PAIRS),
+    'write_kernel': GRIDS + (WHOLE, WHOLE, PAIRS, WHOLE),
     'narrow_kernel': (ROWS, PAIRS, 0.005, np.zeros((6, 2))),
 }
 # Kernels whose atomics are minima, maxima or integer counts (the same in any order).
 ATOMIC = ('fastest_kernel', 'substeps_kernel', 'bounds_kernel', 'levels_kernel',
-          'extents_kernel')
+          'extents_kernel', 'write_kernel')
 
 
 @pytest.mark.skipif(simulated(), reason='the simulator has no compiler')
@@ -74,7 +75,7 @@ def test_every_collision_kernel_compiles_to_ptx_for_compute_capability_9(module,
         ptx, _ = cuda.compile_ptx(kernel, signature, cc=(9, 0))
     assert '.target sm_90' in ptx and '.entry' in ptx and '.const' not in ptx
     # A colour's contacts share no sphere, a row writes only its own pairs: no atomics but
-    # the minima, maxima and counts.
+    # the minima, maxima and integer counts.
     assert ('atom' in ptx) == (name in ATOMIC)
 
 
@@ -92,25 +93,28 @@ def solved(tmp_path_factory):
         return read_cases(folder / 'cases.npz'), dict(kept)
 
 
+@pytest.mark.parametrize('order', THREAD_ORDERS)
 @pytest.mark.parametrize('mode', ['launches', 'cooperative'])
 @pytest.mark.parametrize('label', ['landing', 'rest', 'serial'])
-def test_the_gpu_solve_leaves_what_the_cpu_solve_leaves_bit_for_bit(solved, label, mode):
+def test_the_gpu_solve_leaves_what_the_cpu_solve_leaves_bit_for_bit(solved, label, mode,
+                                                                     order):
     chosen, on_gpu = solved
     for name, value in zip(OUTPUTS, cpu_solve(chosen[label])):
-        gpu = on_gpu[f'{label}.{mode}.{name}']
+        gpu = on_gpu[f'{label}.{mode}.{order}.{name}']
         assert gpu.shape == value.shape and np.all(np.isfinite(gpu)), name
         assert np.array_equal(gpu, value), (name, float(np.max(np.abs(gpu - value))))
 
 
+@pytest.mark.parametrize('order', THREAD_ORDERS)
 @pytest.mark.parametrize('label', ['detect_landing', 'detect_rest', 'detect_levels',
                                    'detect_apart'])
-def test_detection_on_the_gpu_finds_the_cpu_s_contacts_bit_for_bit(solved, label):
+def test_detection_on_the_gpu_finds_the_cpu_s_contacts_bit_for_bit(solved, label, order):
     chosen, on_gpu = solved
     on_cpu = cpu_detect(chosen[label])
-    found = on_cpu['pairs'].shape[1]
-    assert (found == 0) if label == 'detect_apart' else (found >= 10)
+    pairs = on_cpu['pairs'].shape[1]
+    assert (pairs == 0) if label == 'detect_apart' else (pairs >= 10)
     for name, value in on_cpu.items():
-        gpu = on_gpu[f'{label}.{name}']
+        gpu = on_gpu[f'{label}.{order}.{name}']
         if name == 'state':  # its columns past RADIUS are padding, never written
             gpu, value = gpu[:, :RADIUS + 1], value[:, :RADIUS + 1]
         assert gpu.shape == value.shape, name
@@ -121,12 +125,13 @@ def test_the_detection_cases_exercise_what_they_claim(solved):
     chosen, _ = solved
     for label, levels in (('detect_landing', 1), ('detect_rest', 1), ('detect_levels', 2)):
         case = chosen[label]
-        _, reach, level, found, _, _ = _bounding_spheres(
+        _, _, level, level_count, _, _ = _bounding_spheres(
             case['old_position'], case['position'], case['radius'], np.empty(0),
             np.empty(0, dtype=np.int64))
-        assert found == levels and np.all(np.bincount(level) >= 10), label
+        assert level_count == levels and np.all(np.bincount(level) >= 10), label
         if levels == 2:  # pairs across the levels: a finer level's cells are searched
-            spheres = cpu_detect(case)['order'][cpu_detect(case)['pairs']]
+            on_cpu = cpu_detect(case)
+            spheres = on_cpu['order'][on_cpu['pairs']]
             assert np.any(level[spheres[0]] != level[spheres[1]])
     # Landing: spheres swept far in the step (bounding spheres larger than at rest).
     speed = np.linalg.norm(chosen['detect_landing']['velocity'], axis=0)
@@ -180,7 +185,6 @@ def test_an_unknown_launch_mode_is_refused(mode):
     from pool_sim.physics.cuda.device_solve import DeviceSolve
     with pytest.raises(ValueError, match='mode must be one of'):
         DeviceSolve(mode)
-
 
 
 @settings(deadline=None)  # the first example compiles hold_up

@@ -1,7 +1,7 @@
 """The soft step's per-contact functions: soft_step.py sweeps them over its contacts,
 colour by colour, and the GPU's kernels (physics/cuda/contact_kernels.py) call them one
-thread a contact. Each reads and
-writes one contact's row of facts and the velocities of its two spheres, nothing else."""
+thread a contact. Each reads and writes one contact's row of facts and the velocities of
+its two spheres, nothing else."""
 import math
 
 import numba

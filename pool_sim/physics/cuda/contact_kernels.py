@@ -73,7 +73,6 @@ def fastest_share(velocity, thread, threads):
     return fastest
 
 
-
 @numba.njit(error_model='numpy', inline='always')
 def support_share(part, ends, facts, floor_member, floor_gap, velocity, moved, inverse_h,
                   threshold, supported, first, last, thread, threads):
@@ -89,6 +88,7 @@ def support_share(part, ends, facts, floor_member, floor_gap, velocity, moved, i
     else:
         hold_up_contacts(ends, facts, first + thread, last, threads, velocity, moved,
                          inverse_h, threshold, supported)
+
 
 def contacts_kernel(kind, rows, solve_order, velocity, moved, inverse_mass, bounces, first,
                     last, serial, use_bias, hold_apart, scalars):

@@ -8,7 +8,8 @@ Where the CPU runs a serial loop, the GPU runs one thread a sphere, a row or a p
 - the sort by cell is a library's stable sort (device_detect.py), as the CPU's counting
   sort is stable, so the spheres come in the same order;
 - the candidate pairs are counted row by row, the counts summed into offsets (a library's
-  running sum), and written row by row at their offsets: the CPU's pairs, in its order.
+  running sum), and written row by row at their offsets: the CPU's pairs, in its order
+  (a row that finds other than it counted is counted, and detection refuses to go on).
 """
 import numba
 
@@ -96,13 +97,18 @@ def count_kernel(sorted_cell, members, cells, first_cell, start, sorted_bound, l
 
 
 def write_kernel(sorted_cell, members, cells, first_cell, start, sorted_bound, largest, low,
-                 size, counts, offsets, candidates):
-    """Each row's candidate pairs at its offset in candidates (2, total)."""
+                 size, counts, offsets, candidates, differ):
+    """Each row's candidate pairs at its offset in candidates (2, total); differ[0] counts
+    the rows that found other than count_kernel counted (the two passes' comparisons are
+    compiled apart: a contraction of one would leave pairs unwritten)."""
     k = cuda.grid(1)
     if k < counts.size:
         runs = cuda.local.array((RUNS, 2), numba.int64)
-        row_share(k, sorted_cell, members, cells, first_cell, start, sorted_bound, largest,
-                  low, size, runs, candidates[:, offsets[k]:offsets[k] + counts[k]])
+        found = row_share(k, sorted_cell, members, cells, first_cell, start, sorted_bound,
+                          largest, low, size, runs,
+                          candidates[:, offsets[k]:offsets[k] + counts[k]])
+        if found != counts[k]:
+            cuda.atomic.add(differ, 0, 1)
 
 
 def narrow_kernel(state, candidates, dt, facts):

@@ -36,18 +36,30 @@ class SortLibrary:
                                   f'{CUPY_COMMAND}') from error
             self.cupy = cupy
 
+    def _cupy(self, array):
+        """A device array as CuPy's, once numba's launches before it are done: numba
+        launches on the legacy default stream, CuPy on its current one, which need not be
+        the same (CUPY_CUDA_PER_THREAD_DEFAULT_STREAM)."""
+        self.cuda.synchronize()
+        return self.cupy.asarray(array)
+
+    def _numba(self, array):
+        """A CuPy array as numba's, once CuPy's work on it is done."""
+        self.cupy.cuda.get_current_stream().synchronize()
+        return self.cuda.as_cuda_array(array)
+
     def stable_order(self, keys):
         if self.cupy is None:
             return self.cuda.to_device(np.argsort(keys.copy_to_host(), kind='stable'))
-        return self.cuda.as_cuda_array(self.cupy.argsort(self.cupy.asarray(keys)))
+        return self._numba(self.cupy.argsort(self._cupy(keys)))
 
     def starts(self, keys, order, buckets):
         if self.cupy is None:
             ordered = keys.copy_to_host()[order.copy_to_host()]
             return self.cuda.to_device(np.searchsorted(ordered, np.arange(buckets + 1)))
         cupy = self.cupy
-        ordered = cupy.asarray(keys)[cupy.asarray(order)]
-        return self.cuda.as_cuda_array(cupy.searchsorted(
+        ordered = self._cupy(keys)[self._cupy(order)]
+        return self._numba(cupy.searchsorted(
             ordered, cupy.arange(buckets + 1, dtype=ordered.dtype)).astype(cupy.int64))
 
     def offsets(self, counts):
@@ -57,10 +69,10 @@ class SortLibrary:
             counts = counts.copy_to_host()
             ends = np.cumsum(counts)
             return self.cuda.to_device(ends - counts), int(ends[-1]) if ends.size else 0
-        counts = self.cupy.asarray(counts)
+        counts = self._cupy(counts)
         ends = self.cupy.cumsum(counts)
         total = int(ends[-1]) if ends.size else 0
-        return self.cuda.as_cuda_array(ends - counts), total
+        return self._numba(ends - counts), total
 
 
 def _grid(count):
@@ -81,46 +93,50 @@ class DeviceDetect:
         for kernel in KERNELS:
             if kernel.__name__ not in self._compiled:
                 self._compiled[kernel.__name__] = self.cuda.jit(kernel)
-        self.k = self._compiled
+        self.kernels = self._compiled
 
     def detect(self, old_position, old_velocity, position, velocity, radius, dt):
         """{pairs (2, m) int64, facts (6, m): normal (3), excess, added, closing; order (n,)
         int64; state (n, STATE_COLUMNS)} as detect_contacts makes them (Contacts), from
         (3, n) device arrays of the step's start and end and radius (n,)."""
-        cuda, k, count = self.cuda, self.k, radius.shape[0]
+        cuda, kernels, count = self.cuda, self.kernels, radius.shape[0]
         spheres = _grid(count)
         centre, reach = cuda.device_array((3, count)), cuda.device_array(count)
         smallest = cuda.to_device(np.array([math.inf]))
-        k['bounds_kernel'][spheres](old_position, position, radius, centre, reach, smallest)
+        kernels['bounds_kernel'][spheres](old_position, position, radius, centre, reach, smallest)
         level, top = cuda.device_array(count, np.int64), cuda.to_device(np.zeros(1, np.int64))
-        k['levels_kernel'][spheres](reach, smallest, level, top)
+        kernels['levels_kernel'][spheres](reach, smallest, level, top)
         levels = int(top.copy_to_host()[0]) + 1
         members = cuda.to_device(np.zeros(levels, np.int64))
         largest = cuda.to_device(np.zeros(levels))
         low = cuda.to_device(np.full((levels, 3), math.inf))
         high = cuda.to_device(np.full((levels, 3), -math.inf))
-        k['extents_kernel'][spheres](centre, reach, level, members, largest, low, high)
+        kernels['extents_kernel'][spheres](centre, reach, level, members, largest, low, high)
         size, cells = cuda.to_device(np.zeros(levels)), cuda.to_device(np.ones((levels, 3),
                                                                                np.int64))
         first_cell = cuda.to_device(np.zeros(levels + 1, np.int64))
-        k['grids_kernel'][1, 1](members, largest, low, high, size, cells, first_cell)
+        kernels['grids_kernel'][1, 1](members, largest, low, high, size, cells, first_cell)
         where, home = cuda.device_array((3, count), np.int64), cuda.device_array(count, np.int64)
-        k['homes_kernel'][spheres](centre, level, low, size, cells, first_cell, where, home)
+        kernels['homes_kernel'][spheres](centre, level, low, size, cells, first_cell, where, home)
         order = self.library.stable_order(home)
         start = self.library.starts(home, order, int(first_cell.copy_to_host()[levels]))
         sorted_bound = cuda.device_array((count, 4))
         sorted_cell = cuda.device_array((count, 4), np.int64)
         state = cuda.device_array((count, STATE_COLUMNS))
-        k['place_kernel'][spheres](old_position, old_velocity, position, velocity, radius,
+        kernels['place_kernel'][spheres](old_position, old_velocity, position, velocity, radius,
                                    centre, reach, level, where, order, sorted_bound,
                                    sorted_cell, state)
         grids = (sorted_cell, members, cells, first_cell, start, sorted_bound, largest, low,
                  size)
         counts = cuda.device_array(count, np.int64)
-        k['count_kernel'][spheres](*grids, counts, cuda.device_array((2, 0), np.int64))
+        kernels['count_kernel'][spheres](*grids, counts, cuda.device_array((2, 0), np.int64))
         offsets, total = self.library.offsets(counts)  # where each row's pairs begin
         candidates = cuda.device_array((2, total), np.int64)
-        k['write_kernel'][spheres](*grids, counts, offsets, candidates)
+        differ = cuda.to_device(np.zeros(1, np.int64))
+        kernels['write_kernel'][spheres](*grids, counts, offsets, candidates, differ)
+        if int(differ.copy_to_host()[0]):  # rows with pairs left unwritten: unsafe to read
+            raise RuntimeError('detection on the GPU: the write pass found other pairs than '
+                               'the count pass (differently rounded comparisons)')
         facts = cuda.device_array((6, total))
-        k['narrow_kernel'][_grid(total)](state, candidates, dt, facts)
+        kernels['narrow_kernel'][_grid(total)](state, candidates, dt, facts)
         return {'pairs': candidates, 'facts': facts, 'order': order, 'state': state}

@@ -1,10 +1,10 @@
 """DeviceSolve: a step's soft-step substeps and restitution pass (what soft_step.py's
 _substeps and restitution_pass do on the CPU) on the GPU, on the rows contact_rows made.
 
-It is the solve stage of collisions on the GPU, measured and tested on its own: the
-contacts are still found and their rows made on the CPU (detection's cell sort and the
-greedy colouring have no GPU form yet: docs/gpu.md), so `backend: cuda` does not take
-`collisions` yet.
+It is the solve stage of collisions on the GPU, measured and tested on its own. The
+contacts are found on the GPU too (device_detect.py), but their rows are still made on the
+CPU (the members, the keys and warm start, the greedy colouring and the support order have
+no GPU form yet: docs/gpu.md), so `backend: cuda` does not take `collisions` yet.
 """
 import math
 
@@ -93,17 +93,19 @@ class DeviceSolve:
             self._launches(arrays, bounds, serial, fastest, substeps, h, scalars)
 
     def _cooperative(self, arrays, bounds, serial, fastest, substeps, h, scalars):
-        a = arrays
-        arguments = (a['rows'], a['solve_order'], a['velocity'], a['moved'], a['change'],
-                     a['inverse_mass'], a['bounces'], self.cuda.to_device(bounds), serial,
-                     a['ends'], a['facts'], a['wave_bounds'], a['floor_member'],
-                     a['floor_gap'], a['supported'], fastest, substeps, h, scalars)
+        device = arrays
+        arguments = (*(device[name] for name in (
+            'rows', 'solve_order', 'velocity', 'moved', 'change', 'inverse_mass', 'bounces')),
+            self.cuda.to_device(bounds), serial,
+            *(device[name] for name in (
+                'ends', 'facts', 'wave_bounds', 'floor_member', 'floor_gap', 'supported')),
+            fastest, substeps, h, scalars)
         # Compiled for these arguments' types first: a cooperative grid may be no larger
         # than the compiled kernel's blocks the device holds at once.
         kernel = self.kernels['substeps_kernel'].specialize(*arguments)
         overloads = kernel.overloads
         overload = next(iter(overloads.values()), None) or overloads[None]  # the simulator's
-        work = max(a['rows'].shape[0], a['velocity'].shape[0])
+        work = max(device['rows'].shape[0], device['velocity'].shape[0])
         threads = _threads_for(work)
         blocks = min(math.ceil(work / threads),
                      max(1, overload.max_cooperative_grid_blocks(threads)))
@@ -120,30 +122,31 @@ class DeviceSolve:
         return configured
 
     def _launches(self, arrays, bounds, serial, fastest, substeps, h, scalars):
-        a, launch = arrays, self._launch
-        members = a['velocity'].shape[0] - 1
+        device, launch = arrays, self._launch
+        velocity, moved, change = device['velocity'], device['moved'], device['change']
+        members = velocity.shape[0] - 1
 
         def colours(kind, use_bias, hold_apart):
             for c in range(bounds.size - 1):
                 first, last = int(bounds[c]), int(bounds[c + 1])
                 launch('contacts_kernel', 1 if c == serial else last - first)(
-                    kind, a['rows'], a['solve_order'], a['velocity'], a['moved'],
-                    a['inverse_mass'], a['bounces'], first, last, c == serial, use_bias,
-                    hold_apart, scalars)
-        waves, floors = a['wave_bounds'].copy_to_host(), a['floor_member'].shape[0]
+                    kind, device['rows'], device['solve_order'], velocity, moved,
+                    device['inverse_mass'], device['bounces'], first, last, c == serial,
+                    use_bias, hold_apart, scalars)
+        waves, floors = device['wave_bounds'].copy_to_host(), device['floor_member'].shape[0]
         # The support sweep's parts: supported cleared, the floor, then wave by wave.
         support_parts = [(0, 0, 0), (1, 0, 0)] + [(2, int(waves[w]), int(waves[w + 1]))
                                                    for w in range(waves.size - 1)]
         for substep in range(substeps):
-            launch('members_kernel', members)(False, a['velocity'], a['change'], a['moved'], h)
+            launch('members_kernel', members)(False, velocity, change, moved, h)
             colours(CARRY, True, True)
             colours(SOLVE, True, True)
-            launch('fastest_kernel', members)(a['velocity'], fastest, substep)
+            launch('fastest_kernel', members)(velocity, fastest, substep)
             for part, first, last in support_parts:
                 launch('support_kernel', (members, floors, last - first)[part])(
-                    part, a['ends'], a['facts'], a['floor_member'], a['floor_gap'],
-                    a['velocity'], a['moved'], scalars[1], scalars[2], a['supported'],
-                    fastest, substep, first, last)
-            launch('members_kernel', members)(True, a['velocity'], a['change'], a['moved'], h)
+                    part, device['ends'], device['facts'], device['floor_member'],
+                    device['floor_gap'], velocity, moved, scalars[1], scalars[2],
+                    device['supported'], fastest, substep, first, last)
+            launch('members_kernel', members)(True, velocity, change, moved, h)
             colours(SOLVE, False, substep < substeps - 1)
         colours(RESTITUTE, False, False)
