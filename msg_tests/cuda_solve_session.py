@@ -53,10 +53,10 @@ def case_of(ready, settings, dt, threshold, restitution):
 def cases():
     """{label: case}: the column landing (0.3 s) and at rest (4 s), and the landing swept
     as one last colour (every contact by one thread, in slot order: the serial path)."""
-    from benchmarks.solve_passes import prepared_from
+    from benchmarks import solve_passes
     from pool_sim.physics.contacts.colouring import COLOURS
-    chosen = {'landing': case_of(*prepared_from(column_scene(), 0.3)),
-              'rest': case_of(*prepared_from(column_scene(), 4.0))}
+    chosen = {'landing': case_of(*solve_passes.prepared_from(column_scene(), 0.3)),
+              'rest': case_of(*solve_passes.prepared_from(column_scene(), 4.0))}
     serial = dict(chosen['landing'])
     serial['colour_start'] = np.zeros(COLOURS + 1, dtype=np.int64)
     serial['colour_start'][-1] = serial['rows'].shape[0]
@@ -67,9 +67,9 @@ def cases():
 def detection_input(scene, seconds):
     """{old_position, old_velocity, position, velocity, radius, dt}: what soft_step's
     detection takes in the scene's step after `seconds` (the smooth step's end)."""
-    from benchmarks.solve_passes import step_inputs
-    colliding, _, (old_position, old_velocity), (position, velocity), _, _ = step_inputs(
-        scene, seconds)
+    from benchmarks import solve_passes
+    colliding, _, (old_position, old_velocity), (position, velocity), _, _ = (
+        solve_passes.step_inputs(scene, seconds))
     return {'old_position': old_position, 'old_velocity': old_velocity, 'position': position,
             'velocity': velocity, 'radius': colliding.spheres.radius.copy(),
             'dt': np.float64(colliding.max_step)}
