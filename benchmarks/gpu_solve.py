@@ -5,15 +5,16 @@ runs it (--solve-sizes); alone:
 
     python3 -m benchmarks.gpu_solve [--sizes 100000 1000000] [--out results/gpu]
 
-10 M spheres (--sizes 10000000) are left to be asked for: making their rows on one CPU core
-takes minutes (1 M: 18-50 s here, 6.7 GB).
+10 M spheres (--sizes 10000000) are left to be asked for: preparing their step on one CPU
+core (the Simulation, a step, detection, the rows) takes minutes (1 M: 18-50 s here, 6.7 GB).
 
 The scene: equal spheres (radius RADIUS, density DENSITY) on a square lattice, touching, in
 layers from the default pool's floor up, with the default effects and `collisions`
 (soft_step); at rest, or landing (layer k falling at (k + 1) x LANDING_SPEED, so that every
 layer closes on the one below and the bottom one on the floor). From that state, as the
 step would: detection, on the GPU and on the CPU (one thread), timed, and whether the two
-found the same pairs; then contact_rows (on the CPU, not timed: it has no GPU form yet).
+found the same pairs; then contact_rows on the CPU (one run, timed with detection), and the
+rows filled on the GPU from its indices (DeviceRows), timed, against the CPU's.
 Then, every figure a median of --repeats, each from the same rows (copied on the device):
 the GPU's solve in each of DeviceSolve's modes (a launch per pass and colour, or one
 cooperative launch) and the CPU's (soft_step._substeps and restitution_pass, one thread, up
@@ -33,6 +34,7 @@ from pool_sim.physics.contacts import soft_step
 from pool_sim.physics.contacts.detection import detect_contacts
 from pool_sim.physics.contacts.layers import sweep_waves
 from pool_sim.physics.cuda.device_detect import DeviceDetect
+from pool_sim.physics.cuda.device_rows import DeviceRows, INDICES
 from pool_sim.physics.cuda.device_solve import DeviceSolve, MODES, colour_bounds
 
 RADIUS = 0.01  # m
@@ -100,6 +102,37 @@ def detection_timing(inputs, repeats):
     return row
 
 
+def rows_timing(inputs, ready, scalars, repeats):
+    """{gpu_rows_ms: the median of DeviceRows.fill's time (the indices sent up included);
+    rows_gap: the largest difference of the rows it fills from contact_rows'} of a step."""
+    colliding, memory, state, after, reals, wholes = inputs
+    spheres, dt = colliding.spheres, colliding.max_step
+    contacts = detect_contacts(*state, *after, spheres.radius, dt, reals, wholes)[0]
+    filler = DeviceRows()
+
+    def up(array):
+        return filler.cuda.to_device(np.ascontiguousarray(array))
+    settings, _, threshold, _ = scalars
+    _, _, pool, contact, _ = colliding._constants
+    arguments = ((up(contacts.pairs), up(contacts.normal), up(contacts.state)),
+                 {name: getattr(ready, name) for name in INDICES},
+                 (up(spheres.mass), up(spheres.radius)), tuple(map(up, memory)),
+                 tuple(map(up, (*state, *after))),
+                 (tuple(map(float, pool)), tuple(map(float, contact)),
+                  'friction' in colliding.scene['effects'], tuple(map(float, settings)), dt,
+                  threshold))
+    filled = {}
+
+    def run():
+        filled.update(filler.fill(*arguments))
+        filler.cuda.synchronize()
+    run()  # compiles
+    seconds = median_of((lambda: None, run), repeats)
+    rows = filled['rows'].copy_to_host()
+    return {'gpu_rows_ms': seconds * 1e3,
+            'rows_gap': float(np.max(np.abs(rows - ready.rows), initial=0.0))}
+
+
 def median_of(function, repeats):
     """Median seconds of function() over repeats calls, each after prepare() (untimed)."""
     prepare, run = function
@@ -164,7 +197,13 @@ def solve_row(count, landing, repeats, cpu_max):
         detected = detection_timing(inputs, repeats)
     except Exception as error:  # noqa: BLE001 (one run on a lent GPU: keep the rest)
         detected = {'detect_failed': failure(error)}
+    began = time.perf_counter()
     ready, *scalars = rows_of(*inputs)
+    detected['cpu_detect_and_rows_ms'] = (time.perf_counter() - began) * 1e3  # one run
+    try:
+        detected.update(rows_timing(inputs, ready, scalars, repeats))
+    except Exception as error:  # noqa: BLE001 (one run on a lent GPU: keep the rest)
+        detected['rows_failed'] = failure(error)
     bounds, serial = colour_bounds(ready.colour_start)
     _, waves = sweep_waves(ready.support[0], ready.sphere.size)
     row = {'scene': SCENES[landing], 'spheres': count, 'contacts': ready.rows.shape[0],
@@ -246,7 +285,10 @@ def section(rows, repeats):
         '(m/s, m): the largest difference of the GPU\'s velocities and moves from the '
         "CPU's. Detection: gpu_detect against cpu_detect (detect_contacts, one thread), "
         'whether the two found the same pairs in the same order, and the largest '
-        'difference of their normals. The rows are made on the CPU and not timed.',
+        'difference of their normals. cpu_detect_and_rows: detection and contact_rows on '
+        "the CPU, one run (the first row's compiles them); gpu_rows: the rows filled on the "
+        "GPU from the CPU's indices (sent up within the time), rows_gap their largest "
+        "difference from the CPU's.",
         table(rows)])
 
 

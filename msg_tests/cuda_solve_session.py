@@ -87,6 +87,66 @@ def detection_cases():
                              'radius': np.full(10, 0.1), 'dt': np.float64(0.005)}}
 
 
+ROWS_INDICES = ('sphere', 'state_row', 'faces_of', 'slot', 'keys', 'homes', 'by_home')
+ROWS_FILLED = ('rows', 'velocity', 'moved', 'change', 'inverse_mass', 'bounces',
+               'solve_order')
+STEP = ('old_position', 'old_velocity', 'position', 'velocity')
+
+
+def rows_case(scene, seconds):
+    """What DeviceRows.fill takes in the scene's step after `seconds` (detection's arrays,
+    contact_rows' indices, the spheres, last step's memory, the step, the constants), and
+    what contact_rows filled (expected.*)."""
+    import math
+    from benchmarks import solve_passes
+    from pool_sim.physics.contacts.detection import detect_contacts
+    colliding, memory, state, after, reals, wholes = solve_passes.step_inputs(scene, seconds)
+    spheres, dt = colliding.spheres, colliding.max_step
+    contacts, _, _ = detect_contacts(*state, *after, spheres.radius, dt, reals, wholes)
+    case = {'pairs': contacts.pairs.copy(), 'normal': contacts.normal.copy(),
+            'state': contacts.state.copy()}
+    ready, settings, _, threshold, _ = solve_passes.rows_of(colliding, memory, state, after,
+                                                            reals, wholes)
+    case.update({name: np.array(getattr(ready, name)) for name in ROWS_INDICES})
+    case.update({f'expected.{name}': np.array(getattr(ready, name)) for name in ROWS_FILLED})
+    case.update(zip(STEP, (*state, *after)))
+    case.update(zip(('memory_keys', 'memory_forces', 'memory_held'), memory))
+    _, _, pool, contact, _ = colliding._constants
+    case.update(mass=spheres.mass.copy(), radius=spheres.radius.copy(), faces=np.array(pool),
+                contact=np.array(contact), settings=np.array(settings, dtype=float),
+                has_friction=np.bool_('friction' in scene['effects']), dt=np.float64(dt),
+                threshold=np.float64(threshold))
+    assert math.isfinite(threshold)
+    return case
+
+
+def rows_cases():
+    """{label: rows_case}: the column landing (a sphere's smooth path crossing the floor)
+    and at rest, warm-started from the steps before, and the landing with radii from 8 mm."""
+    return {'rows_landing': rows_case(column_scene(), 0.28),
+            'rows_rest': rows_case(column_scene(), 4.0),
+            'rows_levels': rows_case(column_scene(smallest_radius=0.008), 0.32)}
+
+
+def gpu_rows(case):
+    """DeviceRows.fill on a rows_case, its results on the host."""
+    from pool_sim.physics.cuda import load_cuda
+    from pool_sim.physics.cuda.device_rows import DeviceRows
+    cuda = load_cuda()
+
+    def up(name):
+        return cuda.to_device(np.ascontiguousarray(case[name]))
+    filled = DeviceRows().fill(
+        tuple(up(name) for name in ('pairs', 'normal', 'state')),
+        {name: case[name] for name in ROWS_INDICES}, (up('mass'), up('radius')),
+        tuple(up(name) for name in ('memory_keys', 'memory_forces', 'memory_held')),
+        tuple(up(name) for name in STEP),
+        (tuple(map(float, case['faces'])), tuple(map(float, case['contact'])),
+         bool(case['has_friction']), tuple(map(float, case['settings'])), float(case['dt']),
+         float(case['threshold'])))
+    return {name: value.copy_to_host() for name, value in filled.items()}
+
+
 def cpu_detect(case):
     """detect_contacts' Contacts on the CPU, as DeviceDetect's dict."""
     from pool_sim.physics.contacts.detection import detect_contacts
@@ -123,7 +183,7 @@ def cpu_solve(case):
 
 def write_cases(path):
     """cases() and detection_cases() into an npz, each array as label.name."""
-    every = {**cases(), **detection_cases()}
+    every = {**cases(), **detection_cases(), **rows_cases()}
     np.savez(path, **{f'{label}.{name}': value for label, case in every.items()
                       for name, value in case.items()})
 
@@ -165,6 +225,10 @@ def main(cases_path, out_path):
     for order in THREAD_ORDERS:
         numbered(order)
         for label, case in read_cases(cases_path).items():
+            if label.startswith('rows'):
+                results.update({f'{label}.{order}.{name}': value
+                                for name, value in gpu_rows(case).items()})
+                continue
             if label.startswith('detect'):
                 found = DeviceDetect().detect(
                     *(cuda.to_device(np.ascontiguousarray(case[name])) for name in DETECTION),

@@ -14,10 +14,12 @@ import numba
 import numpy as np
 import pytest
 
-from cuda_solve_session import cpu_detect, cpu_solve, OUTPUTS, read_cases, THREAD_ORDERS, \
-    write_cases
+from cuda_solve_session import cpu_detect, cpu_solve, OUTPUTS, read_cases, ROWS_FILLED, \
+    THREAD_ORDERS, write_cases
 from pool_sim.physics.contacts.colouring import COLOURS
-from pool_sim.physics.contacts.detection import _bounding_spheres, RADIUS
+from pool_sim.physics.contacts.detection import _bounding_spheres, END_VELOCITY, RADIUS, \
+    START_VELOCITY
+from pool_sim.physics.contacts.soft_contact import NORMAL
 from pool_sim.physics.contacts.layers import sweep_waves
 from pool_sim.physics.contacts.soft_step import hold_up, may_land
 from pool_sim.physics.cuda import load_cuda, simulated
@@ -54,6 +56,17 @@ DETECT_SAMPLES = {
     'write_kernel': GRIDS + (WHOLE, WHOLE, PAIRS, WHOLE),
     'narrow_kernel': (ROWS, PAIRS, 0.005, np.zeros((6, 2))),
 }
+FACES, CONTACT, SETTINGS = (0.0,) * 6, (0.0,) * 4, (4.0, 120.0, 10.0, 0.5)
+ROWS_SAMPLES = {
+    'body_kernel': (WHOLE, WHOLE, ROWS, REAL, 4.0, BODIES, BODIES, REAL),
+    'fill_kernel': (ROWS, WHOLE, PAIRS, PAIRS, AXES, ROWS, PAIRS, WHOLE, REAL, REAL, WHOLE,
+                    FACES, CONTACT, True, SETTINGS, 0.005, 0.1, FLAG),
+    'warm_kernel': (ROWS, WHOLE, WHOLE, WHOLE, WHOLE, np.zeros((2, 8), np.int64),
+                    np.zeros((2, 8, 4)), WHOLE, PAIRS, WHOLE, REAL, SETTINGS, 0.005),
+    'crossings_kernel': (BODIES, PAIRS, WHOLE, WHOLE, AXES, AXES, AXES, AXES, REAL, FACES,
+                         4.0, 0.005),
+    'order_kernel': (WHOLE, PAIRS, PAIRS),
+}
 # Kernels whose atomics are minima, maxima or integer counts (the same in any order).
 ATOMIC = ('fastest_kernel', 'substeps_kernel', 'bounds_kernel', 'levels_kernel',
           'extents_kernel', 'write_kernel')
@@ -61,14 +74,15 @@ ATOMIC = ('fastest_kernel', 'substeps_kernel', 'bounds_kernel', 'levels_kernel',
 
 @pytest.mark.skipif(simulated(), reason='the simulator has no compiler')
 @pytest.mark.parametrize('module, name', [('contact_kernels', name) for name in sorted(SAMPLES)]
-                         + [('detect_kernels', name) for name in sorted(DETECT_SAMPLES)])
+                         + [('detect_kernels', name) for name in sorted(DETECT_SAMPLES)]
+                         + [('rows_kernels', name) for name in sorted(ROWS_SAMPLES)])
 def test_every_collision_kernel_compiles_to_ptx_for_compute_capability_9(module, name):
     # As test_cuda_backend.ptx_of: the current device's compute capability is asked for
     # while an @njit function a kernel calls compiles; answered with 9.0.
     cuda = load_cuda()
     from numba.cuda import dispatcher
     kernel = getattr(importlib.import_module(f'pool_sim.physics.cuda.{module}'), name)
-    samples = {**SAMPLES, **DETECT_SAMPLES}[name]
+    samples = {**SAMPLES, **DETECT_SAMPLES, **ROWS_SAMPLES}[name]
     signature = tuple(numba.typeof(value) for value in samples)
     hopper = types.SimpleNamespace(compute_capability=(9, 0))
     with mock.patch.object(dispatcher, 'get_current_device', lambda: hopper):
@@ -119,6 +133,31 @@ def test_detection_on_the_gpu_finds_the_cpu_s_contacts_bit_for_bit(solved, label
             gpu, value = gpu[:, :RADIUS + 1], value[:, :RADIUS + 1]
         assert gpu.shape == value.shape, name
         assert np.array_equal(gpu, value), name
+
+
+@pytest.mark.parametrize('order', THREAD_ORDERS)
+@pytest.mark.parametrize('label', ['rows_landing', 'rows_rest', 'rows_levels'])
+def test_the_rows_filled_on_the_gpu_are_the_cpu_s_bit_for_bit(solved, label, order):
+    chosen, on_gpu = solved
+    for name in ROWS_FILLED:
+        gpu, value = on_gpu[f'{label}.{order}.{name}'], chosen[label][f'expected.{name}']
+        assert gpu.shape == value.shape and np.array_equal(gpu, value), name
+
+
+def test_the_rows_cases_exercise_what_they_claim(solved):
+    chosen, _ = solved
+    for label in ('rows_landing', 'rows_rest', 'rows_levels'):
+        case = chosen[label]
+        rows = case['expected.rows']
+        assert case['slot'].size >= 20 and case['faces_of'].shape[0] >= 10, label
+        assert np.count_nonzero(rows[:, NORMAL]) >= 2, label  # warm-started from memory
+        # A smooth path that crossed a face: its change is not the smooth step's share.
+        state = case['state'][case['state_row']]
+        share = (state[:, END_VELOCITY:END_VELOCITY + 3]
+                 - state[:, START_VELOCITY:START_VELOCITY + 3]) / case['settings'][0]
+        crossed = np.any(share != case['expected.change'][:-1, :3], axis=1)
+        assert crossed.any() == (label != 'rows_rest'), label
+    assert chosen['rows_landing']['expected.bounces'].any()
 
 
 def test_the_detection_cases_exercise_what_they_claim(solved):

@@ -24,7 +24,16 @@ def bound_face_crossings(change, faces_of, sphere, old_position, old_velocity, p
     past it at the end): it ends approaching the face at the speed it reached it at.
     old_*, position, velocity: the step's start and the smooth step's end; faces (6,) m:
     the pool's low then high corner; radius (n,) m."""
-    for f in range(faces_of.shape[0]):
+    bound_crossing_range(change, faces_of, sphere, old_position, old_velocity, position,
+                         velocity, radius, faces, substeps, dt, 0, faces_of.shape[0], 1)
+
+
+@numba.njit(error_model='numpy')
+def bound_crossing_range(change, faces_of, sphere, old_position, old_velocity, position,
+                         velocity, radius, faces, substeps, dt, start, stop, step):
+    """bound_face_crossings for face contacts start, start + step, ... below stop (a GPU
+    thread takes a member's, which are in a row: a member's faces share its change)."""
+    for f in range(start, stop, step):
         k, face = faces_of[f, 0], faces_of[f, 1]
         i, axis = sphere[k], face % 3
         inward = 1.0 if face < 3 else -1.0  # the face's normal, into the pool

@@ -112,20 +112,31 @@ def fill_rows(rows, slot, ends, contacts, faces_of, state_row, inverse_mass, mas
     restitution pass looks at the contact (soft_contact.restitute_contact's first test, on
     its approach: faster than threshold m/s, or not a number), so that it reads those
     rows only."""
-    found = contacts.pairs.shape[1]
-    state = contacts.state
+    fill_row_range(rows, slot, ends, contacts.pairs, contacts.normal, contacts.state,
+                   faces_of, state_row, inverse_mass, mass, sphere, faces, contact,
+                   has_friction, settings, dt, threshold, bounces, 0, ends.shape[0], 1)
+
+
+# fill_row_range, warm_start_range and fill_body_rows take a range with a stride, so that a
+# GPU thread (physics/cuda/rows_kernels.py) fills its share with the loop the CPU runs.
+@numba.njit(error_model='numpy')
+def fill_row_range(rows, slot, ends, pairs, normal, state, faces_of, state_row, inverse_mass,
+                   mass, sphere, faces, contact, has_friction, settings, dt, threshold, bounces,
+                   start, stop, step):
+    """fill_rows for contacts start, start + step, ... below stop (detection's pairs,
+    normal and state as Contacts has them)."""
+    found = pairs.shape[1]
     h = dt / settings[0]
     soft = soft_coefficients(min(settings[1], MOST_HZ_PER_SUBSTEP_RATE / h), settings[2], h)
     mu_s = contact[1] if has_friction else 0.0
     mu_k = contact[2] if has_friction else 0.0
     rolling = contact[3] if has_friction else 0.0
-    for c in range(ends.shape[0]):
+    for c in range(start, stop, step):
         s = slot[c]
         rows[s, :] = 0.0
         if c < found:
-            i, j = contacts.pairs[0, c], contacts.pairs[1, c]  # rows of state
-            nx, ny, nz = (contacts.normal[0, c], contacts.normal[1, c],
-                          contacts.normal[2, c])
+            i, j = pairs[0, c], pairs[1, c]  # rows of state
+            nx, ny, nz = normal[0, c], normal[1, c], normal[2, c]
             rows[s, GAP] = ((state[i, START_POSITION] - state[j, START_POSITION]) * nx
                             + (state[i, START_POSITION + 1] - state[j, START_POSITION + 1]) * ny
                             + (state[i, START_POSITION + 2] - state[j, START_POSITION + 2]) * nz
@@ -163,9 +174,17 @@ def warm_start(rows, slot, keys, homes, by_home, memory_keys, memory_forces, mem
     that load would press it more than LOADED_OVERLAP (ends, sphere, radius: for the
     smaller radius; the spheres' own radius (n,) m, which stays in cache where detection's
     state, 16 times its size, does not)."""
+    warm_start_range(rows, slot, keys, homes, by_home, memory_keys, memory_forces,
+                     memory_held, ends, sphere, radius, settings, dt, 0, keys.size, 1)
+
+
+@numba.njit(error_model='numpy')
+def warm_start_range(rows, slot, keys, homes, by_home, memory_keys, memory_forces,
+                     memory_held, ends, sphere, radius, settings, dt, start, stop, step):
+    """warm_start for the contacts by_home[start], by_home[start + step], ... below stop."""
     h = dt / settings[0]
     ground = sphere.size
-    for q in range(keys.size):
+    for q in range(start, stop, step):
         c = by_home[q]
         home = homes[c]
         j = remembered_slot(memory_keys, memory_held, home, keys[c])
@@ -230,12 +249,20 @@ def body_rows(sphere, state_row, state, mass, settings, reals, used_real):
     moved[:, :] = 0.0
     change[:, :] = 0.0
     inverse_mass[members] = 0.0
-    substeps = settings[0]
-    for k in range(members):
+    fill_body_rows(sphere, state_row, state, mass, settings[0], velocity_rows, change,
+                   inverse_mass, 0, members, 1)
+    return velocity_rows, moved, change, inverse_mass
+
+
+@numba.njit(error_model='numpy')
+def fill_body_rows(sphere, state_row, state, mass, substeps, velocity_rows, change,
+                   inverse_mass, start, stop, step):
+    """body_rows' rows of members start, start + step, ... below stop (their velocity,
+    velocity change per substep and inverse mass; the rest stays as body_rows set it)."""
+    for k in range(start, stop, step):
         r = state_row[k]
         for axis in range(3):
             velocity_rows[k, axis] = state[r, START_VELOCITY + axis]
             change[k, axis] = (state[r, END_VELOCITY + axis]
                                - state[r, START_VELOCITY + axis]) / substeps
         inverse_mass[k] = 1.0 / mass[sphere[k]]
-    return velocity_rows, moved, change, inverse_mass

@@ -62,7 +62,8 @@ _HOLDING_GAP = 1e-9
 
 Prepared = namedtuple('Prepared', ('rows', 'solve_order', 'velocity', 'moved', 'change',
                                    'inverse_mass', 'support', 'bounces', 'sphere', 'slot',
-                                   'keys', 'homes', 'by_home', 'colour_start'))
+                                   'keys', 'homes', 'by_home', 'colour_start', 'faces_of',
+                                   'state_row'))
 Prepared.__doc__ = """What a step's substeps solve on (contact_rows), c contacts among m
 member spheres: rows (c, COLUMNS), each slot's contact (soft_contact.py's columns), colour by
 colour; solve_order (c, 2) int64, each slot's two member rows (the ground, row m, for a
@@ -72,7 +73,9 @@ inverse_mass (m + 1,) 1/kg; support: _support_order's; bounces (c,) bool: the sl
 restitution pass looks at (soft_rows.fill_rows); sphere (m,) int64, each member's sphere;
 slot, keys, homes (c,) int64 and by_home: for remember (soft_rows.py); colour_start
 (colouring.COLOURS + 1,) int64: where each colour's slots begin (the last colour's
-contacts may share a sphere: swept in order)."""
+contacts may share a sphere: swept in order); faces_of (f, 2) int64: each face contact's
+member and face (soft_rows.face_contacts); state_row (m,) int64: each member's row of
+detection's state."""
 
 
 @numba.njit(error_model='numpy')
@@ -165,7 +168,8 @@ def contact_rows(contacts, used_real, used_whole, old_position, old_velocity, po
     support = _support_order(rows, ends[:pairs.shape[1]], faces_of, slot, sphere,
                              old_position, radius)
     return Prepared(rows, solve_order, velocity_rows, moved, change, inverse_mass, support,
-                    bounces, sphere, slot, keys, homes, by_home, colour_start)
+                    bounces, sphere, slot, keys, homes, by_home, colour_start, faces_of,
+                    state_row)
 
 
 @numba.njit(error_model='numpy')
