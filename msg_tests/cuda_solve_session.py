@@ -104,7 +104,9 @@ def rows_case(scene, seconds):
     spheres, dt = colliding.spheres, colliding.max_step
     contacts, _, _ = detect_contacts(*state, *after, spheres.radius, dt, reals, wholes)
     case = {'pairs': contacts.pairs.copy(), 'normal': contacts.normal.copy(),
-            'state': contacts.state.copy()}
+            'state': contacts.state.copy(), 'order': contacts.order.copy(),
+            'identity': colliding._identity.copy(),
+            'has_faces': np.bool_('contact' in scene['effects'])}
     ready, settings, _, threshold, _ = solve_passes.rows_of(colliding, memory, state, after,
                                                             reals, wholes)
     case.update({name: np.array(getattr(ready, name)) for name in ROWS_INDICES})
@@ -129,14 +131,18 @@ def rows_cases():
 
 
 def gpu_rows(case):
-    """DeviceRows.fill on a rows_case, its results on the host."""
+    """DeviceRows.indices and fill on a rows_case (fill from the CPU's indices), their
+    results on the host (the indices' as index_*)."""
     from pool_sim.physics.cuda import load_cuda
     from pool_sim.physics.cuda.device_rows import DeviceRows
     cuda = load_cuda()
 
     def up(name):
         return cuda.to_device(np.ascontiguousarray(case[name]))
-    filled = DeviceRows().fill(
+    maker = DeviceRows()
+    made = maker.indices(up('pairs'), up('order'), up('state'), up('identity'),
+                         tuple(map(float, case['faces'])), bool(case['has_faces']))
+    filled = maker.fill(
         tuple(up(name) for name in ('pairs', 'normal', 'state')),
         {name: case[name] for name in ROWS_INDICES}, (up('mass'), up('radius')),
         tuple(up(name) for name in ('memory_keys', 'memory_forces', 'memory_held')),
@@ -144,7 +150,8 @@ def gpu_rows(case):
         (tuple(map(float, case['faces'])), tuple(map(float, case['contact'])),
          bool(case['has_friction']), tuple(map(float, case['settings'])), float(case['dt']),
          float(case['threshold'])))
-    return {name: value.copy_to_host() for name, value in filled.items()}
+    return {**{name: value.copy_to_host() for name, value in filled.items()},
+            **{f'index_{name}': value.copy_to_host() for name, value in made.items()}}
 
 
 def cpu_detect(case):

@@ -58,6 +58,11 @@ DETECT_SAMPLES = {
 }
 FACES, CONTACT, SETTINGS = (0.0,) * 6, (0.0,) * 4, (4.0, 120.0, 10.0, 0.5)
 ROWS_SAMPLES = {
+    'mark_members_kernel': (PAIRS, WHOLE),
+    'flag_members_kernel': (WHOLE, WHOLE),
+    'place_members_kernel': (WHOLE, WHOLE, WHOLE, WHOLE, WHOLE),
+    'faces_kernel': (WHOLE, ROWS, FACES, WHOLE, WHOLE, PAIRS),
+    'keys_kernel': (PAIRS, PAIRS, WHOLE, WHOLE, WHOLE, PAIRS, WHOLE, WHOLE),
     'body_kernel': (WHOLE, WHOLE, ROWS, REAL, 4.0, BODIES, BODIES, REAL),
     'fill_kernel': (ROWS, WHOLE, PAIRS, PAIRS, AXES, ROWS, PAIRS, WHOLE, REAL, REAL, WHOLE,
                     FACES, CONTACT, True, SETTINGS, 0.005, 0.1, FLAG),
@@ -141,6 +146,19 @@ def test_the_rows_filled_on_the_gpu_are_the_cpu_s_bit_for_bit(solved, label, ord
     chosen, on_gpu = solved
     for name in ROWS_FILLED:
         gpu, value = on_gpu[f'{label}.{order}.{name}'], chosen[label][f'expected.{name}']
+        assert gpu.shape == value.shape and np.array_equal(gpu, value), name
+
+
+@pytest.mark.parametrize('order', THREAD_ORDERS)
+@pytest.mark.parametrize('label', ['rows_landing', 'rows_rest', 'rows_levels'])
+def test_the_contacts_indices_made_on_the_gpu_are_the_cpu_s(solved, label, order):
+    chosen, on_gpu = solved
+    case = chosen[label]
+    expected = {name: case[name] for name in ('sphere', 'state_row', 'faces_of', 'keys',
+                                              'homes', 'by_home')}
+    expected['ends'] = case['expected.solve_order'][case['slot']]
+    for name, value in expected.items():
+        gpu = on_gpu[f'{label}.{order}.index_{name}']
         assert gpu.shape == value.shape and np.array_equal(gpu, value), name
 
 

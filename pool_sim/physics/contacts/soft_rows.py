@@ -62,19 +62,30 @@ def face_contacts(state_row, state, faces, has_faces, found):
     faces within _FACE_REACH of a radius of a member's path (start or smooth end)."""
     members = state_row.size
     faces_of = np.empty((6 * members if has_faces else 0, 2), dtype=np.int64)
-    f = 0
-    for k in range(members if has_faces else 0):
+    f = member_faces(state_row, state, faces, 0, members if has_faces else 0, 1, faces_of, 0)
+    return faces_of[:f], found + f
+
+
+# member_faces, pair_keys and face_keys, like the fills below, take a range with a stride:
+# a GPU thread (physics/cuda/rows_kernels.py) takes its share with the CPU's loop.
+@numba.njit(error_model='numpy')
+def member_faces(state_row, state, faces, start, stop, step, out, f):
+    """The face contacts (member row, face) of members start, start + step, ... below stop,
+    written into out (rows, 2) from row f on, as many as fit; returns f past them all."""
+    for k in range(start, stop, step):
         r = state[state_row[k], RADIUS]
         for axis in range(3):
-            start = state[state_row[k], START_POSITION + axis]
-            end = state[state_row[k], END_POSITION + axis]
-            if min(start, end) - r - faces[axis] < _FACE_REACH * r:
-                faces_of[f, 0], faces_of[f, 1] = k, axis
+            first = state[state_row[k], START_POSITION + axis]
+            last = state[state_row[k], END_POSITION + axis]
+            if min(first, last) - r - faces[axis] < _FACE_REACH * r:
+                if f < out.shape[0]:
+                    out[f, 0], out[f, 1] = k, axis
                 f += 1
-            if faces[axis + 3] - r - max(start, end) < _FACE_REACH * r:
-                faces_of[f, 0], faces_of[f, 1] = k, axis + 3
+            if faces[axis + 3] - r - max(first, last) < _FACE_REACH * r:
+                if f < out.shape[0]:
+                    out[f, 0], out[f, 1] = k, axis + 3
                 f += 1
-    return faces_of[:f], found + f
+    return f
 
 
 @numba.njit(error_model='numpy')
@@ -88,19 +99,32 @@ def contact_keys(pairs, faces_of, row_of, sphere, identity, total, wholes, used_
     ends = ends.reshape((total, 2))
     keys, used_whole = take(wholes, used_whole, total)
     homes, used_whole = take(wholes, used_whole, total)
-    for c in range(found):
+    pair_keys(pairs, row_of, sphere, identity, ends, keys, homes, 0, found, 1)
+    face_keys(faces_of, sphere, identity, found, ground, ends, keys, homes, 0, total - found, 1)
+    return ends, keys, homes, used_whole
+
+
+@numba.njit(error_model='numpy')
+def pair_keys(pairs, row_of, sphere, identity, ends, keys, homes, start, stop, step):
+    """contact_keys for pairs start, start + step, ... below stop."""
+    for c in range(start, stop, step):
         a, b = row_of[pairs[0, c]], row_of[pairs[1, c]]
         ends[c, 0], ends[c, 1] = a, b
         i, j = sphere[a], sphere[b]
         lower = i if identity[i] < identity[j] else j
         keys[c] = (identity[lower] << 32) | identity[i + j - lower]
         homes[c] = lower
-    for f in range(total - found):
+
+
+@numba.njit(error_model='numpy')
+def face_keys(faces_of, sphere, identity, found, ground, ends, keys, homes, start, stop, step):
+    """contact_keys for face contacts start, start + step, ... below stop (contacts found +
+    those)."""
+    for f in range(start, stop, step):
         c, i = found + f, sphere[faces_of[f, 0]]
         ends[c, 0], ends[c, 1] = faces_of[f, 0], ground
         keys[c] = (identity[i] << 32) | (_FACE_KEY + faces_of[f, 1])
         homes[c] = i
-    return ends, keys, homes, used_whole
 
 
 @numba.njit(error_model='numpy')

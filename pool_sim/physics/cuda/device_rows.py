@@ -1,9 +1,9 @@
-"""DeviceRows: the soft step's rows filled on the GPU (rows_kernels.py) - the members'
+"""DeviceRows: the soft step's rows made on the GPU (rows_kernels.py). indices() makes the
+members, the face contacts, the keys and the sort by home; fill() fills the members'
 velocities and velocity changes, each contact's row and its warm start, the face crossings
-and the solve order - from the contacts' indices the CPU made (soft_step.contact_rows: the
-members, face contacts, keys, the sort by home and the colouring, which have no GPU form
-yet: docs/gpu.md). What it fills is what contact_rows fills, to the bit in numba's
-simulator; DeviceSolve (device_solve.py) takes it from there.
+and the solve order, from the indices (the colouring has no GPU form yet: the CPU's slots
+are given; docs/gpu.md). What they make is what soft_step.contact_rows makes, to the bit in
+numba's simulator; DeviceSolve (device_solve.py) takes it from there.
 """
 import math
 
@@ -11,6 +11,7 @@ import numpy as np
 
 from ..contacts.soft_contact import COLUMNS
 from . import load_cuda
+from .device_detect import SortLibrary
 from .rows_kernels import KERNELS
 
 THREADS_PER_BLOCK = 128
@@ -33,6 +34,42 @@ class DeviceRows:
             if kernel.__name__ not in self._compiled:
                 self._compiled[kernel.__name__] = self.cuda.jit(kernel)
         self.kernels = self._compiled
+        self.library = SortLibrary(self.cuda)
+
+    def indices(self, pairs, order, state, identity, faces, has_faces):
+        """{sphere, row_of, state_row, faces_of, ends, keys, homes, by_home}: device arrays
+        as soft_step.contact_rows makes them (soft_rows.members_of, face_contacts,
+        contact_keys, the sort by home), from detection's pairs, order and state on the
+        device, identity (n,) int64 there, faces (6,) m and has_faces."""
+        cuda, kernels, count = self.cuda, self.kernels, order.shape[0]
+        found = pairs.shape[1]
+        row_of = cuda.to_device(np.full(count, -1, dtype=np.int64))
+        kernels['mark_members_kernel'][_grid(found)](pairs, row_of)
+        flags = cuda.device_array(count, dtype=np.int64)
+        kernels['flag_members_kernel'][_grid(count)](row_of, flags)
+        offsets, members = self.library.offsets(flags)
+        sphere = cuda.device_array(members, dtype=np.int64)
+        state_row = cuda.device_array(members, dtype=np.int64)
+        kernels['place_members_kernel'][_grid(count)](row_of, offsets, order, sphere, state_row)
+        counts = cuda.to_device(np.zeros(members, dtype=np.int64))
+        nothing = cuda.device_array((0, 2), dtype=np.int64)
+        if has_faces:
+            kernels['faces_kernel'][_grid(members)](state_row, state, faces, counts, counts,
+                                                    nothing)
+        face_offsets, face_count = self.library.offsets(counts)
+        faces_of = cuda.device_array((face_count, 2), dtype=np.int64)
+        if face_count:
+            kernels['faces_kernel'][_grid(members)](state_row, state, faces, counts,
+                                                    face_offsets, faces_of)
+        total = found + face_count
+        ends = cuda.device_array((total, 2), dtype=np.int64)
+        keys, homes = (cuda.device_array(total, dtype=np.int64) for _ in range(2))
+        kernels['keys_kernel'][_grid(total)](pairs, faces_of, row_of, sphere, identity, ends,
+                                             keys, homes)
+        by_home = self.library.stable_order(homes)
+        return {'sphere': sphere, 'row_of': row_of, 'state_row': state_row,
+                'faces_of': faces_of, 'ends': ends, 'keys': keys, 'homes': homes,
+                'by_home': by_home}
 
     def fill(self, detected, indices, spheres, memory, step, constants):
         """{rows, velocity, moved, change, inverse_mass, bounces, solve_order}: device
