@@ -35,9 +35,8 @@ import numpy as np
 from benchmarks import gpu_solve
 from benchmarks.common import provenance, write_csv
 from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, Spheres, stepper
-from pool_sim.physics.cuda import load_cuda, simulated
+from pool_sim.physics.cuda import blocks_for, load_cuda, simulated, THREADS_PER_BLOCK
 from pool_sim.physics.cuda.device import DeviceState
-from pool_sim.physics.cuda.kernels import blocks_for, THREADS_PER_BLOCK
 from pool_sim.physics.spheres import LIFT_SLOPE, STALL_ANGLE
 
 STEPS_PER_LAUNCH = 100

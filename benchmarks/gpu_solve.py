@@ -34,7 +34,7 @@ from pool_sim.physics.contacts import soft_step
 from pool_sim.physics.contacts.detection import detect_contacts
 from pool_sim.physics.contacts.layers import sweep_waves
 from pool_sim.physics.cuda.device_detect import DeviceDetect
-from pool_sim.physics.cuda.device_rows import DeviceRows, INDICES
+from pool_sim.physics.cuda.device_rows import DeviceRows
 from pool_sim.physics.cuda.device_solve import DeviceSolve, MODES, colour_bounds
 
 RADIUS = 0.01  # m
@@ -103,29 +103,32 @@ def detection_timing(inputs, repeats):
 
 
 def rows_timing(inputs, ready, scalars, repeats):
-    """{gpu_rows_ms: the median of DeviceRows.fill's time (the indices sent up included);
-    rows_gap: the largest difference of the rows it fills from contact_rows'} of a step."""
+    """{gpu_rows_ms: the median of DeviceRows' indices and fill (from the CPU's colour
+    slots); rows_gap: the largest difference of the rows it fills from contact_rows'} of a
+    step."""
     colliding, memory, state, after, reals, wholes = inputs
     spheres, dt = colliding.spheres, colliding.max_step
     contacts = detect_contacts(*state, *after, spheres.radius, dt, reals, wholes)[0]
-    filler = DeviceRows()
+    maker = DeviceRows()
 
     def up(array):
-        return filler.cuda.to_device(np.ascontiguousarray(array))
+        return maker.cuda.to_device(np.ascontiguousarray(array))
     settings, _, threshold, _ = scalars
     _, _, pool, contact, _ = colliding._constants
-    arguments = ((up(contacts.pairs), up(contacts.normal), up(contacts.state)),
-                 {name: getattr(ready, name) for name in INDICES},
-                 (up(spheres.mass), up(spheres.radius)), tuple(map(up, memory)),
+    pool = tuple(map(float, pool))
+    detected = tuple(map(up, (contacts.pairs, contacts.normal, contacts.state)))
+    order, identity = up(contacts.order), up(colliding._identity)
+    arguments = ((up(spheres.mass), up(spheres.radius)), tuple(map(up, memory)),
                  tuple(map(up, (*state, *after))),
-                 (tuple(map(float, pool)), tuple(map(float, contact)),
-                  'friction' in colliding.scene['effects'], tuple(map(float, settings)), dt,
-                  threshold))
+                 (pool, tuple(map(float, contact)), 'friction' in colliding.scene['effects'],
+                  tuple(map(float, settings)), dt, threshold))
+    has_faces = 'contact' in colliding.scene['effects']
     filled = {}
 
     def run():
-        filled.update(filler.fill(*arguments))
-        filler.cuda.synchronize()
+        made = maker.indices(detected[0], order, detected[2], identity, pool, has_faces)
+        filled.update(maker.fill(detected, made, ready.slot, *arguments))
+        maker.cuda.synchronize()
     run()  # compiles
     seconds = median_of((lambda: None, run), repeats)
     rows = filled['rows'].copy_to_host()
@@ -286,9 +289,9 @@ def section(rows, repeats):
         "CPU's. Detection: gpu_detect against cpu_detect (detect_contacts, one thread), "
         'whether the two found the same pairs in the same order, and the largest '
         'difference of their normals. cpu_detect_and_rows: detection and contact_rows on '
-        "the CPU, one run (the first row's compiles them); gpu_rows: the rows filled on the "
-        "GPU from the CPU's indices (sent up within the time), rows_gap their largest "
-        "difference from the CPU's.",
+        "the CPU, one run (the first row's compiles them); gpu_rows: the contacts' indices "
+        "made and the rows filled on the GPU (from the CPU's colour slots, sent up within "
+        "the time), rows_gap their largest difference from the CPU's.",
         table(rows)])
 
 

@@ -131,7 +131,7 @@ def rows_cases():
 
 
 def gpu_rows(case):
-    """DeviceRows.indices and fill on a rows_case (fill from the CPU's indices), their
+    """DeviceRows.indices, then fill from them and the CPU's slots, on a rows_case: their
     results on the host (the indices' as index_*)."""
     from pool_sim.physics.cuda import load_cuda
     from pool_sim.physics.cuda.device_rows import DeviceRows
@@ -143,8 +143,8 @@ def gpu_rows(case):
     made = maker.indices(up('pairs'), up('order'), up('state'), up('identity'),
                          tuple(map(float, case['faces'])), bool(case['has_faces']))
     filled = maker.fill(
-        tuple(up(name) for name in ('pairs', 'normal', 'state')),
-        {name: case[name] for name in ROWS_INDICES}, (up('mass'), up('radius')),
+        tuple(up(name) for name in ('pairs', 'normal', 'state')), made, case['slot'],
+        (up('mass'), up('radius')),
         tuple(up(name) for name in ('memory_keys', 'memory_forces', 'memory_held')),
         tuple(up(name) for name in STEP),
         (tuple(map(float, case['faces'])), tuple(map(float, case['contact'])),

@@ -157,6 +157,8 @@ def test_the_contacts_indices_made_on_the_gpu_are_the_cpu_s(solved, label, order
     expected = {name: case[name] for name in ('sphere', 'state_row', 'faces_of', 'keys',
                                               'homes', 'by_home')}
     expected['ends'] = case['expected.solve_order'][case['slot']]
+    expected['face_start'] = np.searchsorted(case['faces_of'][:, 0],
+                                             np.arange(case['sphere'].size + 1))
     for name, value in expected.items():
         gpu = on_gpu[f'{label}.{order}.index_{name}']
         assert gpu.shape == value.shape and np.array_equal(gpu, value), name

@@ -11,11 +11,14 @@ numba-cuda is an optional extra (`pip install pool_sim[cuda]`): nothing here is 
 unless a scene asks for `backend: cuda`. NUMBA_ENABLE_CUDASIM=1 runs the kernels in
 numba's CUDA simulator, on the CPU (what the tests do on a machine without a GPU).
 """
+import math
 import os
 
 import numpy as np
 
 BACKENDS = ('cpu', 'cuda')
+THREADS_PER_BLOCK = 128
+_COMPILED = {}  # kernel function -> it compiled by cuda.jit, once per process
 # What a refusal for want of numba-cuda tells the user to run (the pin the tests run).
 INSTALL_COMMAND = 'pip install numba-cuda[cu13]==0.30.4'
 
@@ -49,3 +52,23 @@ def unavailable():
         return f'no usable CUDA device: {error}'
     return ('no CUDA device is present (numba.cuda.is_available() is False: no NVIDIA '
             'driver, or no GPU)')
+
+
+def blocks_for(count):
+    """Blocks of THREADS_PER_BLOCK threads that cover count items (at least one)."""
+    return max(1, math.ceil(count / THREADS_PER_BLOCK))
+
+
+def grid_for(count):
+    """(blocks, threads): a launch of one thread an item over count items."""
+    return blocks_for(count), THREADS_PER_BLOCK
+
+
+def compiled(kernels):
+    """{name: kernel}: the kernel functions compiled by cuda.jit, each once per process
+    (every DeviceDetect, DeviceRows and DeviceSolve shares them)."""
+    cuda = load_cuda()
+    for kernel in kernels:
+        if kernel not in _COMPILED:
+            _COMPILED[kernel] = cuda.jit(kernel)
+    return {kernel.__name__: _COMPILED[kernel] for kernel in kernels}

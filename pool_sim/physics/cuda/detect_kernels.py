@@ -41,7 +41,7 @@ def levels_kernel(reach, smallest, level, top):
 
 def extents_kernel(centre, reach, level, members, largest, low, high):
     """Each level's spheres counted, its largest reach and the corners of its centres'
-    box (as detection.grid_extents, whose loop this is)."""
+    box: detection._grids' first loop, its minima, maxima and counts as atomics."""
     i = cuda.grid(1)
     if i < reach.size:
         at = level[i]

@@ -11,8 +11,8 @@ import numpy as np
 from ..kernels.effects import WAVE_TABLE
 from ..kernels.layout import PROPERTIES, SPHERE_ARRAYS
 from ..spheres import InvalidInput
-from . import load_cuda, unavailable
-from .kernels import advance_source, blocks_for, THREADS_PER_BLOCK
+from . import blocks_for, load_cuda, THREADS_PER_BLOCK, unavailable
+from .kernels import advance_source
 
 STATE = ('position', 'velocity')
 ARRAYS = SPHERE_ARRAYS  # every array of the spheres the kernel reads

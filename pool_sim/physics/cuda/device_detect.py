@@ -11,11 +11,10 @@ import math
 
 import numpy as np
 
-from . import load_cuda, simulated
+from . import compiled, grid_for, load_cuda, simulated
 from .detect_kernels import KERNELS
 from ..contacts.detection import STATE_COLUMNS
 
-THREADS_PER_BLOCK = 128
 # What a refusal for want of CuPy tells the user to run.
 CUPY_COMMAND = 'pip install cupy-cuda13x'
 
@@ -63,44 +62,33 @@ class SortLibrary:
             ordered, cupy.arange(buckets + 1, dtype=ordered.dtype)).astype(cupy.int64))
 
     def offsets(self, counts):
-        """(offsets: where each item's share begins, the exclusive running sum of int64
-        counts, on the device; total, an int)."""
+        """(offsets (n + 1,) int64 on the device: where each of the n items' shares begins,
+        and, last, where they all end (a running sum of counts (n,) int64 from 0); that end,
+        an int)."""
         if self.cupy is None:
-            counts = counts.copy_to_host()
-            ends = np.cumsum(counts)
-            return self.cuda.to_device(ends - counts), int(ends[-1]) if ends.size else 0
-        counts = self._cupy(counts)
-        ends = self.cupy.cumsum(counts)
-        total = int(ends[-1]) if ends.size else 0
-        return self._numba(ends - counts), total
-
-
-def _grid(count):
-    """(blocks, threads) of a launch of one thread an item over count items."""
-    threads = THREADS_PER_BLOCK
-    return max(1, math.ceil(count / threads)), threads
+            offsets = np.concatenate(([0], np.cumsum(counts.copy_to_host()))).astype(np.int64)
+            return self.cuda.to_device(offsets), int(offsets[-1])
+        cupy = self.cupy
+        offsets = cupy.concatenate((cupy.zeros(1, dtype=cupy.int64),
+                                    cupy.cumsum(self._cupy(counts))))
+        return self._numba(offsets), int(offsets[-1])
 
 
 class DeviceDetect:
     """detect_contacts on the GPU. detect() takes the step's device arrays and returns the
     Contacts' arrays on the device, by name."""
 
-    _compiled = {}  # kernel name -> the kernel, shared by every DeviceDetect
-
     def __init__(self):
         self.cuda = load_cuda()
         self.library = SortLibrary(self.cuda)
-        for kernel in KERNELS:
-            if kernel.__name__ not in self._compiled:
-                self._compiled[kernel.__name__] = self.cuda.jit(kernel)
-        self.kernels = self._compiled
+        self.kernels = compiled(KERNELS)
 
     def detect(self, old_position, old_velocity, position, velocity, radius, dt):
         """{pairs (2, m) int64, facts (6, m): normal (3), excess, added, closing; order (n,)
         int64; state (n, STATE_COLUMNS)} as detect_contacts makes them (Contacts), from
         (3, n) device arrays of the step's start and end and radius (n,)."""
         cuda, kernels, count = self.cuda, self.kernels, radius.shape[0]
-        spheres = _grid(count)
+        spheres = grid_for(count)
         centre, reach = cuda.device_array((3, count)), cuda.device_array(count)
         smallest = cuda.to_device(np.array([math.inf]))
         kernels['bounds_kernel'][spheres](old_position, position, radius, centre, reach, smallest)
@@ -123,9 +111,9 @@ class DeviceDetect:
         sorted_bound = cuda.device_array((count, 4))
         sorted_cell = cuda.device_array((count, 4), np.int64)
         state = cuda.device_array((count, STATE_COLUMNS))
-        kernels['place_kernel'][spheres](old_position, old_velocity, position, velocity, radius,
-                                   centre, reach, level, where, order, sorted_bound,
-                                   sorted_cell, state)
+        kernels['place_kernel'][spheres](old_position, old_velocity, position, velocity,
+                                         radius, centre, reach, level, where, order,
+                                         sorted_bound, sorted_cell, state)
         grids = (sorted_cell, members, cells, first_cell, start, sorted_bound, largest, low,
                  size)
         counts = cuda.device_array(count, np.int64)
@@ -138,5 +126,5 @@ class DeviceDetect:
             raise RuntimeError('detection on the GPU: the write pass found other pairs than '
                                'the count pass (differently rounded comparisons)')
         facts = cuda.device_array((6, total))
-        kernels['narrow_kernel'][_grid(total)](state, candidates, dt, facts)
+        kernels['narrow_kernel'][grid_for(total)](state, candidates, dt, facts)
         return {'pairs': candidates, 'facts': facts, 'order': order, 'state': state}

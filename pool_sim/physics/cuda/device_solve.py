@@ -12,10 +12,9 @@ import numpy as np
 
 from ..contacts.colouring import COLOURS
 from ..contacts.layers import sweep_waves
-from . import load_cuda
+from . import compiled, load_cuda, THREADS_PER_BLOCK
 from .contact_kernels import CARRY, KERNELS, RESTITUTE, SOLVE
 
-THREADS_PER_BLOCK = 128
 MODES = ('launches', 'cooperative')
 
 
@@ -41,17 +40,12 @@ class DeviceSolve:
     either of MODES. run() takes a soft_step.Prepared and returns what the CPU's passes
     leave in it."""
 
-    _compiled = {}  # kernel name -> the kernel, shared by every DeviceSolve
-
     def __init__(self, mode='cooperative'):
         if mode not in MODES:
             raise ValueError(f'mode must be one of {MODES}, not {mode!r}')
         self.cuda = load_cuda()
         self.mode = mode
-        for kernel in KERNELS:
-            if kernel.__name__ not in self._compiled:
-                self._compiled[kernel.__name__] = self.cuda.jit(kernel)
-        self.kernels = self._compiled
+        self.kernels = compiled(KERNELS)
         self._configured = {}  # (kernel name, blocks, threads) -> its launch configuration
 
     def upload(self, ready):

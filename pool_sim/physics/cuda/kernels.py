@@ -10,8 +10,6 @@ The loop is the scalar one (Listed.scalar): a thread skips by a branch the work 
 does not need (the table look-ups of a sphere off the surface), which a vectorised CPU loop
 could not.
 """
-import math
-
 from ..kernels.layout import body_of, env_of
 from ..stepper import _face_mark, _integrate, sphere_faces
 from . import load_cuda
@@ -19,7 +17,6 @@ from . import load_cuda
 # A global, not a local: numba's CUDA simulator runs a kernel with each thread's own
 # `cuda` swapped into the kernel's globals.
 cuda = load_cuda()
-THREADS_PER_BLOCK = 128
 
 
 def advance_source(integrator_code, listed, has_contact, has_friction):
@@ -60,7 +57,3 @@ def advance_source(integrator_code, listed, has_contact, has_friction):
 
     return advance
 
-
-def blocks_for(count):
-    """Blocks of THREADS_PER_BLOCK threads that cover count spheres."""
-    return max(1, math.ceil(count / THREADS_PER_BLOCK))
