@@ -14,7 +14,9 @@ layers from the default pool's floor up, with the default effects and `collision
 layer closes on the one below and the bottom one on the floor). From that state, as the
 step would: detection, on the GPU and on the CPU (one thread), timed, and whether the two
 found the same pairs; then contact_rows on the CPU (one run, timed with detection), and the
-rows filled on the GPU from its indices (DeviceRows), timed, against the CPU's.
+rows filled on the GPU from its indices (DeviceRows), timed, against the CPU's; the GPU's
+colouring (DeviceOrder.colour: its colours and rounds) and support order (support(), from
+the CPU's rows, against the CPU's), timed.
 Then, every figure a median of --repeats, each from the same rows (copied on the device):
 the GPU's solve in each of DeviceSolve's modes (a launch per pass and colour, or one
 cooperative launch) and the CPU's (soft_step._substeps and restitution_pass, one thread, up
@@ -34,6 +36,7 @@ from pool_sim.physics.contacts import soft_step
 from pool_sim.physics.contacts.detection import detect_contacts
 from pool_sim.physics.contacts.layers import sweep_waves
 from pool_sim.physics.cuda.device_detect import DeviceDetect
+from pool_sim.physics.cuda.device_order import DeviceOrder
 from pool_sim.physics.cuda.device_rows import DeviceRows
 from pool_sim.physics.cuda.device_solve import DeviceSolve, MODES, colour_bounds
 
@@ -104,12 +107,15 @@ def detection_timing(inputs, repeats):
 
 def rows_timing(inputs, ready, scalars, repeats):
     """{gpu_rows_ms: the median of DeviceRows' indices and fill (from the CPU's colour
-    slots); rows_gap: the largest difference of the rows it fills from contact_rows'} of a
-    step."""
+    slots); rows_gap: the largest difference of the rows it fills from contact_rows';
+    gpu_colour_ms, gpu_support_ms: DeviceOrder's colour() and support() (from the CPU's
+    slots and rows), their medians; gpu_colours, colour_rounds, wave_rounds: what they took;
+    support_same: whether support() made the CPU's support order and waves} of a step."""
     colliding, memory, state, after, reals, wholes = inputs
     spheres, dt = colliding.spheres, colliding.max_step
     contacts = detect_contacts(*state, *after, spheres.radius, dt, reals, wholes)[0]
     maker = DeviceRows()
+    orders = DeviceOrder(maker.library)
 
     def up(array):
         return maker.cuda.to_device(np.ascontiguousarray(array))
@@ -123,17 +129,39 @@ def rows_timing(inputs, ready, scalars, repeats):
                  (pool, tuple(map(float, contact)), 'friction' in colliding.scene['effects'],
                   tuple(map(float, settings)), dt, threshold))
     has_faces = 'contact' in colliding.scene['effects']
-    filled = {}
+    made, filled, coloured, supported = {}, {}, [], {}
 
-    def run():
-        made = maker.indices(detected[0], order, detected[2], identity, pool, has_faces)
+    def indices_and_fill():
+        made.update(maker.indices(detected[0], order, detected[2], identity, pool, has_faces))
         filled.update(maker.fill(detected, made, ready.slot, *arguments))
         maker.cuda.synchronize()
-    run()  # compiles
-    seconds = median_of((lambda: None, run), repeats)
+
+    def colour():
+        coloured[:] = orders.colour(made['ends'], made['sphere'].shape[0])
+        maker.cuda.synchronize()
+    cpu_slot = up(ready.slot)
+
+    def support():
+        supported.update(orders.support(
+            filled['rows'], made['ends'], contacts.pairs.shape[1], made['faces_of'], cpu_slot,
+            made['sphere'], arguments[2][0], arguments[0][1]))
+        maker.cuda.synchronize()
+    timed = {}
+    for name, run in (('gpu_rows_ms', indices_and_fill), ('gpu_colour_ms', colour),
+                      ('gpu_support_ms', support)):
+        run()  # compiles
+        timed[name] = median_of((lambda: None, run), repeats) * 1e3
     rows = filled['rows'].copy_to_host()
-    return {'gpu_rows_ms': seconds * 1e3,
-            'rows_gap': float(np.max(np.abs(rows - ready.rows), initial=0.0))}
+    ends, facts, floor_member, floor_gap = ready.support
+    by_wave, wave_bounds = sweep_waves(ends, ready.sphere.size)
+    expected = {'ends': ends[by_wave], 'facts': facts[by_wave], 'wave_bounds': wave_bounds,
+                'floor_member': floor_member, 'floor_gap': floor_gap}
+    same = all(np.array_equal(supported[name].copy_to_host(), value)
+               for name, value in expected.items())
+    return {**timed, 'rows_gap': float(np.max(np.abs(rows - ready.rows), initial=0.0)),
+            'gpu_colours': int(np.count_nonzero(np.diff(coloured[1]))),
+            'colour_rounds': orders.rounds['colour'],
+            'wave_rounds': orders.rounds.get('waves', 0), 'support_same': same}
 
 
 def median_of(function, repeats):

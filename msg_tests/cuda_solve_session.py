@@ -154,6 +154,77 @@ def gpu_rows(case):
             **{f'index_{name}': value.copy_to_host() for name, value in made.items()}}
 
 
+def ends_and_ground(case):
+    """(ends (m, 2), the ground's row) of an order case, or of a rows_case's contacts, in
+    the order contact_rows found them."""
+    if 'ends' in case:
+        return case['ends'], int(case['ground'])
+    return case['expected.solve_order'][case['slot']], case['sphere'].size
+
+
+def order_cases():
+    """{label: {ends, ground, facts}}: random contacts for DeviceOrder's rounds: many
+    sharing a few spheres (and the ground), one sphere in 70 (so the last colour takes
+    some), and support contacts in long chains (many waves)."""
+    rng = np.random.default_rng(11)
+    crowd = np.stack([rng.integers(0, 12, 150), rng.integers(0, 13, 150)], axis=1)
+    crowd[crowd[:, 0] == crowd[:, 1], 1] = 12  # row 12: the ground, only ever second
+    star = np.stack([np.zeros(70, np.int64), rng.permutation(70) + 1], axis=1)
+    chains = rng.integers(0, 9, (120, 2))
+    chains[chains[:, 0] == chains[:, 1], 1] = (chains[chains[:, 0] == chains[:, 1], 0] + 1) % 9
+    return {'order_crowd': {'ends': crowd, 'ground': np.int64(12)},
+            'order_star': {'ends': star, 'ground': np.int64(71)},
+            'order_chains': {'ends': chains, 'ground': np.int64(9),
+                             'facts': rng.normal(size=(120, 4))}}
+
+
+def gpu_orders(case, up):
+    """DeviceOrder.colour on an order case or a rows_case's contacts, and on a rows_case
+    its support(), or on an order case with facts its waves alone: host arrays."""
+    from pool_sim.physics.cuda.device_order import DeviceOrder
+    maker = DeviceOrder()
+    ends, ground = ends_and_ground(case)
+    ends = up(ends)
+    slot, colour_start = maker.colour(ends, ground)
+    made = {'slot': slot.copy_to_host(), 'colour_start': colour_start}
+    if 'facts' in case:
+        waves = maker._waves(ends, up(case['facts']), ground)
+        made.update({f'support_{name}': value.copy_to_host() for name, value in waves.items()})
+    elif 'ends' not in case:
+        support = maker.support(up(case['expected.rows']), ends, case['pairs'].shape[1],
+                                *(up(case[name]) for name in ('faces_of', 'slot', 'sphere',
+                                                              'old_position', 'radius')))
+        made.update({f'support_{name}': value.copy_to_host()
+                     for name, value in support.items()})
+    made.update({f'rounds_{name}': np.int64(taken) for name, taken in maker.rounds.items()})
+    return {f'order_{name}': value for name, value in made.items()}
+
+
+def cpu_orders(case):
+    """What gpu_orders should find, made by the CPU's functions: colouring.colour_by_priority
+    and soft_step._support_order, then layers.sweep_waves."""
+    from pool_sim.physics.contacts import soft_step
+    from pool_sim.physics.contacts.colouring import colour_by_priority
+    from pool_sim.physics.contacts.layers import sweep_waves
+    ends, ground = ends_and_ground(case)
+    slot, colour_start = colour_by_priority(ends, ground)
+    made = {'slot': slot, 'colour_start': colour_start}
+    if 'facts' in case:
+        support = (ends, case['facts'], None, None)
+    elif 'ends' not in case:
+        support = soft_step._support_order(
+            case['expected.rows'], ends[:case['pairs'].shape[1]], case['faces_of'],
+            case['slot'], case['sphere'], case['old_position'], case['radius'])
+    else:
+        return {f'order_{name}': value for name, value in made.items()}
+    order, bounds = sweep_waves(support[0], ground)
+    made.update(support_ends=support[0][order], support_facts=support[1][order],
+                support_wave_bounds=bounds)
+    if support[2] is not None:
+        made.update(support_floor_member=support[2], support_floor_gap=support[3])
+    return {f'order_{name}': value for name, value in made.items()}
+
+
 def cpu_detect(case):
     """detect_contacts' Contacts on the CPU, as DeviceDetect's dict."""
     from pool_sim.physics.contacts.detection import detect_contacts
@@ -190,7 +261,7 @@ def cpu_solve(case):
 
 def write_cases(path):
     """cases() and detection_cases() into an npz, each array as label.name."""
-    every = {**cases(), **detection_cases(), **rows_cases()}
+    every = {**cases(), **detection_cases(), **rows_cases(), **order_cases()}
     np.savez(path, **{f'{label}.{name}': value for label, case in every.items()
                       for name, value in case.items()})
 
@@ -232,9 +303,13 @@ def main(cases_path, out_path):
     for order in THREAD_ORDERS:
         numbered(order)
         for label, case in read_cases(cases_path).items():
-            if label.startswith('rows'):
+            if label.startswith(('rows', 'order')):
+                made = gpu_orders(case, lambda array: cuda.to_device(np.ascontiguousarray(
+                    array)))
+                if label.startswith('rows'):
+                    made.update(gpu_rows(case))
                 results.update({f'{label}.{order}.{name}': value
-                                for name, value in gpu_rows(case).items()})
+                                for name, value in made.items()})
                 continue
             if label.startswith('detect'):
                 found = DeviceDetect().detect(

@@ -216,5 +216,8 @@ def test_the_gpu_benchmark_runs_in_the_simulator_and_writes_its_tables(tmp_path)
         assert row['detect_same_pairs'] == 'True' and float(row['detect_normal_gap']) == 0.0
         assert float(row['gpu_detect_ms']) > 0.0 and float(row['cpu_detect_ms']) > 0.0
         assert float(row['gpu_rows_ms']) > 0.0 and float(row['rows_gap']) == 0.0
+        assert float(row['gpu_colour_ms']) > 0.0 and float(row['gpu_support_ms']) > 0.0
+        assert row['support_same'] == 'True' and int(row['gpu_colours']) >= 2
+        assert int(row['colour_rounds']) >= 2 and int(row['wave_rounds']) >= 1
         assert all(float(row[f'{mode}_{what}_gap']) == 0.0 for mode in ('launches',
                    'cooperative') for what in ('velocity', 'moved'))

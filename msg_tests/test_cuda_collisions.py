@@ -1,8 +1,10 @@
 """Collisions on the GPU without a GPU: the soft step's solve stage (physics/cuda/
-contact_kernels.py, device_solve.py) and contact detection (detect_kernels.py,
-device_detect.py). Their kernels compile to PTX for compute capability 9.0; in numba's CUDA
-simulator both ways of launching the solve leave the rows and velocities the CPU's substeps
-and restitution pass leave, and detection finds the CPU's contacts, bit for bit."""
+contact_kernels.py, device_solve.py), contact detection (detect_kernels.py,
+device_detect.py), the rows (rows_kernels.py, device_rows.py) and the sweep's orders
+(order_kernels.py, device_order.py). Their kernels compile to PTX for compute capability
+9.0; in numba's CUDA simulator both ways of launching the solve leave the rows and
+velocities the CPU's substeps and restitution pass leave, detection finds the CPU's
+contacts, the rows are the CPU's, and the orders are the CPU functions', bit for bit."""
 import importlib
 import subprocess
 import sys
@@ -14,9 +16,9 @@ import numba
 import numpy as np
 import pytest
 
-from cuda_solve_session import cpu_detect, cpu_solve, OUTPUTS, read_cases, ROWS_FILLED, \
-    THREAD_ORDERS, write_cases
-from pool_sim.physics.contacts.colouring import COLOURS
+from cuda_solve_session import cpu_detect, cpu_orders, cpu_solve, ends_and_ground, OUTPUTS, \
+    read_cases, ROWS_FILLED, THREAD_ORDERS, write_cases
+from pool_sim.physics.contacts.colouring import colour_by_priority, colour_priority, COLOURS
 from pool_sim.physics.contacts.detection import _bounding_spheres, END_VELOCITY, RADIUS, \
     START_VELOCITY
 from pool_sim.physics.contacts.soft_contact import NORMAL
@@ -72,22 +74,37 @@ ROWS_SAMPLES = {
                          4.0, 0.005),
     'order_kernel': (WHOLE, PAIRS, PAIRS),
 }
+ORDER_SAMPLES = {
+    'incidence_keys_kernel': (PAIRS, WHOLE),
+    'colour_round_kernel': (PAIRS, 2, WHOLE, WHOLE, WHOLE, WHOLE),
+    'slot_kernel': (WHOLE, WHOLE),
+    'floor_flags_kernel': (PAIRS, WHOLE),
+    'floor_place_kernel': (PAIRS, WHOLE, WHOLE, ROWS, WHOLE, 0, WHOLE, REAL),
+    'heights_kernel': (WHOLE, AXES, REAL, REAL, REAL, REAL),
+    'layer_kernel': (PAIRS, REAL, REAL, WHOLE),
+    'bearing_flags_kernel': (ROWS, WHOLE, WHOLE, WHOLE),
+    'bearing_place_kernel': (ROWS, WHOLE, PAIRS, WHOLE, WHOLE, WHOLE, PAIRS, BODIES),
+    'wave_round_kernel': (PAIRS, WHOLE, WHOLE, WHOLE, WHOLE, WHOLE),
+    'gather_kernel': (WHOLE, PAIRS, BODIES, PAIRS, BODIES),
+}
 # Kernels whose atomics are minima, maxima or integer counts (the same in any order).
 ATOMIC = ('fastest_kernel', 'substeps_kernel', 'bounds_kernel', 'levels_kernel',
-          'extents_kernel', 'write_kernel')
+          'extents_kernel', 'write_kernel', 'colour_round_kernel', 'heights_kernel',
+          'wave_round_kernel')
 
 
 @pytest.mark.skipif(simulated(), reason='the simulator has no compiler')
 @pytest.mark.parametrize('module, name', [('contact_kernels', name) for name in sorted(SAMPLES)]
                          + [('detect_kernels', name) for name in sorted(DETECT_SAMPLES)]
-                         + [('rows_kernels', name) for name in sorted(ROWS_SAMPLES)])
+                         + [('rows_kernels', name) for name in sorted(ROWS_SAMPLES)]
+                         + [('order_kernels', name) for name in sorted(ORDER_SAMPLES)])
 def test_every_collision_kernel_compiles_to_ptx_for_compute_capability_9(module, name):
     # As test_cuda_backend.ptx_of: the current device's compute capability is asked for
     # while an @njit function a kernel calls compiles; answered with 9.0.
     cuda = load_cuda()
     from numba.cuda import dispatcher
     kernel = getattr(importlib.import_module(f'pool_sim.physics.cuda.{module}'), name)
-    samples = {**SAMPLES, **DETECT_SAMPLES, **ROWS_SAMPLES}[name]
+    samples = {**SAMPLES, **DETECT_SAMPLES, **ROWS_SAMPLES, **ORDER_SAMPLES}[name]
     signature = tuple(numba.typeof(value) for value in samples)
     hopper = types.SimpleNamespace(compute_capability=(9, 0))
     with mock.patch.object(dispatcher, 'get_current_device', lambda: hopper):
@@ -156,12 +173,101 @@ def test_the_contacts_indices_made_on_the_gpu_are_the_cpu_s(solved, label, order
     case = chosen[label]
     expected = {name: case[name] for name in ('sphere', 'state_row', 'faces_of', 'keys',
                                               'homes', 'by_home')}
-    expected['ends'] = case['expected.solve_order'][case['slot']]
+    expected['ends'] = ends_and_ground(case)[0]
     expected['face_start'] = np.searchsorted(case['faces_of'][:, 0],
                                              np.arange(case['sphere'].size + 1))
     for name, value in expected.items():
         gpu = on_gpu[f'{label}.{order}.index_{name}']
         assert gpu.shape == value.shape and np.array_equal(gpu, value), name
+
+
+ORDER_LABELS = ['rows_landing', 'rows_rest', 'rows_levels', 'order_crowd', 'order_star',
+                'order_chains']
+
+
+@pytest.mark.parametrize('order', THREAD_ORDERS)
+@pytest.mark.parametrize('label', ORDER_LABELS)
+def test_the_orders_made_on_the_gpu_are_the_cpu_functions_bit_for_bit(solved, label, order):
+    # The colouring: colour_by_priority's; the support order and waves: the CPU's own.
+    chosen, on_gpu = solved
+    expected = cpu_orders(chosen[label])
+    for name, value in expected.items():
+        gpu = on_gpu[f'{label}.{order}.{name}']
+        assert gpu.shape == value.shape and np.array_equal(gpu, value), name
+    made = {key.split('.', 2)[2] for key in on_gpu if key.startswith(f'{label}.{order}.')
+            and key.split('.', 2)[2].startswith('order_support')}
+    assert made == {name for name in expected if name.startswith('order_support')}
+
+
+@pytest.mark.parametrize('label', ORDER_LABELS)
+def test_the_gpu_colouring_keeps_a_colour_s_contacts_apart(solved, label):
+    chosen, on_gpu = solved
+    case = chosen[label]
+    ends, ground = ends_and_ground(case)
+    slot = on_gpu[f'{label}.forward.order_slot']
+    start = on_gpu[f'{label}.forward.order_colour_start']
+    assert np.array_equal(np.sort(slot), np.arange(ends.shape[0]))
+    colour = np.searchsorted(start, slot, side='right') - 1
+    for k in range(COLOURS - 1):  # the last takes what is left
+        rows = ends[colour == k].ravel()
+        rows = rows[rows != ground]
+        assert np.unique(rows).size == rows.size, (label, k)
+
+
+def priorities(ends):
+    """colouring.colour_priority of each contact."""
+    return np.array([colour_priority(c) for c in range(ends.shape[0])], dtype=np.int64)
+
+
+def chain_of(ends, ground, order):
+    """The longest chain of contacts, in the given order, each sharing a sphere (not the
+    ground) with the one before: what colouring greedily in that order waits for."""
+    longest = np.zeros(ground + 1, dtype=np.int64)
+    for a, b in ends[order]:
+        longest[a] = longest[b] = max(longest[a], longest[b] if b != ground else 0) + 1
+    return int(longest[:ground].max())
+
+
+def test_colour_priority_s_chains_are_short_on_a_pile_s_layer():
+    # 10 000 spheres on a square lattice on the floor, each touching its four neighbours
+    # and the floor, in the order detection finds them: the chains the CPU's order would
+    # wait for are long; colour_priority's, as the GPU colours, short.
+    side = 100
+    index = np.arange(side * side).reshape(side, side)
+    pairs = [np.stack([index[:, :-1].ravel(), index[:, 1:].ravel()], axis=1),
+             np.stack([index[:-1].ravel(), index[1:].ravel()], axis=1)]
+    ends = np.concatenate(pairs)
+    ends = ends[np.argsort(ends[:, 0], kind='stable')]
+    ends = np.concatenate([ends, np.stack([index.ravel(), np.full(side * side, side * side)],
+                                          axis=1)])
+    ground = side * side
+    in_order = chain_of(ends, ground, np.arange(ends.shape[0]))
+    by_priority = chain_of(ends, ground, np.argsort(priorities(ends), kind='stable'))
+    assert in_order >= 150 and by_priority <= 30, (in_order, by_priority)
+    _, start = colour_by_priority(ends, ground)
+    assert np.count_nonzero(np.diff(start)) <= 10  # few colours still
+
+
+def test_the_order_cases_exercise_what_they_claim(solved):
+    chosen, on_gpu = solved
+    assert on_gpu['order_star.forward.order_colour_start'][COLOURS - 1] < 70  # the last colour
+    for label in ORDER_LABELS:
+        # A round per link of the longest chain in colour_priority's order, and one more
+        # that finds none waiting.
+        ends, ground = ends_and_ground(chosen[label])
+        rounds = int(on_gpu[f'{label}.forward.order_rounds_colour'])
+        by_priority = np.argsort(priorities(ends), kind='stable')
+        assert 2 <= rounds <= chain_of(ends, ground, by_priority) + 1, label
+    assert on_gpu['order_chains.forward.order_support_wave_bounds'].size >= 12  # many waves
+    # Threads numbered backwards wait a round for each wave (forwards, the simulator runs
+    # a thread after those before it: one round may settle them all).
+    assert on_gpu['order_chains.backward.order_rounds_waves'] >= 11
+    rest = {name: on_gpu[f'rows_rest.forward.order_support_{name}']
+            for name in ('ends', 'floor_member', 'wave_bounds')}
+    assert rest['ends'].shape[0] >= 10 and rest['floor_member'].size >= 10
+    assert rest['wave_bounds'].size >= 3  # more than one wave
+    crowd = chosen['order_crowd']['ends']
+    assert np.any(crowd == 12)  # contacts with the ground
 
 
 def test_the_rows_cases_exercise_what_they_claim(solved):

@@ -20,13 +20,25 @@ def bottom_up_order(ends, z, radius, wholes, used_whole):
     for k in range(z.size):
         lowest, highest = min(lowest, z[k]), max(highest, z[k])
         smallest = min(smallest, radius[k])
-    layers = int(min((highest - lowest) / smallest, 4.0 * found)) + 1
+    layers = layer_count(lowest, highest, smallest, found)
     layer, used_whole = take(wholes, used_whole, found)
     for c in range(found):
-        height = min(z[ends[c, 0]], z[ends[c, 1]])
-        layer[c] = min(int((height - lowest) / smallest), layers - 1)
+        layer[c] = layer_of(min(z[ends[c, 0]], z[ends[c, 1]]), lowest, smallest, layers)
     order, _, used_whole = counting_sort(layer, layers, wholes, used_whole)
     return order, used_whole
+
+
+@numba.njit(error_model='numpy')
+def layer_count(lowest, highest, smallest, found):
+    """How many layers bottom_up_order sorts found contacts into: as thick as the smallest
+    radius m from the lowest sphere's height m to the highest's, at most 4 found."""
+    return int(min((highest - lowest) / smallest, 4.0 * found)) + 1
+
+
+@numba.njit(error_model='numpy')
+def layer_of(height, lowest, smallest, layers):
+    """The layer of a contact whose lower sphere is at height m (layer_count's)."""
+    return min(int((height - lowest) / smallest), layers - 1)
 
 
 @numba.njit(error_model='numpy')

@@ -59,6 +59,8 @@ RESTING_FACTOR = 2.0
 _BEARING = 0.3
 # Touching, for _support_sweep: apart by no more than this, m.
 _HOLDING_GAP = 1e-9
+# The floor among a contact's faces (0-2: the low x, y and z faces; 3-5: the high ones).
+FLOOR_FACE = 2
 
 Prepared = namedtuple('Prepared', ('rows', 'solve_order', 'velocity', 'moved', 'change',
                                    'inverse_mass', 'support', 'bounces', 'sphere', 'slot',
@@ -263,7 +265,7 @@ def _support_order(rows, pair_ends, faces_of, slot, sphere, old_position, radius
     floor_gap = np.empty(slot.size - found)
     floors = 0
     for f in range(slot.size - found):
-        if faces_of[f, 1] == 2:  # the floor: low z
+        if faces_of[f, 1] == FLOOR_FACE:
             floor_member[floors] = faces_of[f, 0]
             floor_gap[floors] = rows[slot[found + f], GAP]
             floors += 1
@@ -279,18 +281,31 @@ def _support_order(rows, pair_ends, faces_of, slot, sphere, old_position, radius
     bearing = 0
     for q in range(found):
         c = order[q]
-        s = slot[c]
-        sign = 1.0 if rows[s, NZ] > 0.0 else -1.0  # the normal's sense from lower to upper
-        if sign * rows[s, NZ] < _BEARING:
-            continue  # side by side: neither holds the other up
-        first, second = pair_ends[c, 0], pair_ends[c, 1]
-        ends[bearing, 0], ends[bearing, 1] = (first, second) if sign > 0.0 else (second, first)
-        facts[bearing, 0] = sign * rows[s, NX]
-        facts[bearing, 1] = sign * rows[s, NY]
-        facts[bearing, 2] = sign * rows[s, NZ]
-        facts[bearing, 3] = rows[s, GAP]
-        bearing += 1
+        if bears(rows, slot[c]):
+            write_bearing(rows, slot[c], pair_ends[c, 0], pair_ends[c, 1], ends, facts,
+                          bearing)
+            bearing += 1
     return ends[:bearing], facts[:bearing], floor_member, floor_gap
+
+
+@numba.njit(error_model='numpy')
+def bears(rows, s):
+    """Whether the pair in slot s bears weight (its normal is steep enough); side by
+    side, neither sphere holds the other up."""
+    sign = 1.0 if rows[s, NZ] > 0.0 else -1.0  # the normal's sense from lower to upper
+    return not sign * rows[s, NZ] < _BEARING
+
+
+@numba.njit(error_model='numpy')
+def write_bearing(rows, s, first, second, ends, facts, at):
+    """The bearing pair in slot s (member rows first, second) into _support_order's ends
+    and facts at row `at`: upper sphere first, the normal from lower to upper, the gap."""
+    sign = 1.0 if rows[s, NZ] > 0.0 else -1.0
+    ends[at, 0], ends[at, 1] = (first, second) if sign > 0.0 else (second, first)
+    facts[at, 0] = sign * rows[s, NX]
+    facts[at, 1] = sign * rows[s, NY]
+    facts[at, 2] = sign * rows[s, NZ]
+    facts[at, 3] = rows[s, GAP]
 
 
 @numba.njit(error_model='numpy')

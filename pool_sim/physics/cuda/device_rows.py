@@ -1,9 +1,9 @@
 """DeviceRows: the soft step's rows made on the GPU (rows_kernels.py). indices() makes the
 members, the face contacts, the keys and the sort by home; fill() fills the members'
 velocities and velocity changes, each contact's row and its warm start, the face crossings
-and the solve order, from those indices and the CPU's colour slots (the colouring has no
-GPU form yet: docs/gpu.md). What they make is what soft_step.contact_rows makes, to the bit in
-numba's simulator; DeviceSolve (device_solve.py) takes it from there.
+and the solve order, from those indices and a colouring's slots (DeviceOrder.colour's,
+device_order.py). Given the same slots, what they make is what soft_step.contact_rows
+makes, to the bit in numba's simulator; DeviceSolve (device_solve.py) takes it from there.
 """
 import numpy as np
 
@@ -62,14 +62,15 @@ class DeviceRows:
         """{rows, velocity, moved, change, inverse_mass, bounces, solve_order}: device
         arrays as soft_step.contact_rows' Prepared has them. detected: detection's pairs,
         normal (3, m) and state on the device (Contacts' arrays, device_detect's); made:
-        indices()'s; slot (contacts,) int64: each contact's place in the sweep (the CPU's
-        colouring, colouring.colour_contacts); spheres: (mass, radius) (n,) device arrays;
-        memory: (keys, forces, held), last step's, on the device; step: (old_position,
-        old_velocity, position, velocity) (3, n) device arrays; constants: (faces (6,),
-        contact (4,), has_friction, settings (4,), dt s, threshold m/s) as contact_rows
-        takes them."""
+        indices()'s; slot (contacts,) int64: each contact's place in the sweep (on the
+        device, DeviceOrder.colour's; or on the host, a colouring's); spheres: (mass,
+        radius) (n,) device arrays; memory: (keys, forces, held), last step's, on the
+        device; step: (old_position, old_velocity, position, velocity) (3, n) device
+        arrays; constants: (faces (6,), contact (4,), has_friction, settings (4,), dt s,
+        threshold m/s) as contact_rows takes them."""
         cuda, kernels = self.cuda, self.kernels
-        slot = cuda.to_device(np.ascontiguousarray(slot, dtype=np.int64))
+        if not hasattr(slot, 'copy_to_host'):  # a host array
+            slot = cuda.to_device(np.ascontiguousarray(slot, dtype=np.int64))
         pairs, normal, state = detected
         mass, radius = spheres
         faces, contact, has_friction, settings, dt, threshold = constants

@@ -2,9 +2,11 @@
 _substeps and restitution_pass do on the CPU) on the GPU, on the rows contact_rows made.
 
 It is the solve stage of collisions on the GPU, measured and tested on its own. The
-contacts are found on the GPU too (device_detect.py), and most of their rows made there
-(device_rows.py), but the greedy colouring and the support order have no GPU form yet
-(docs/gpu.md), so `backend: cuda` does not take `collisions` yet.
+contacts are found on the GPU too (device_detect.py), their rows made there
+(device_rows.py) and their orders (device_order.py), but remembering the contacts and
+writing the spheres back have no GPU form yet (docs/gpu.md), so `backend: cuda` does not
+take `collisions` yet. solve() takes its support arrays from DeviceOrder.support or from
+upload().
 """
 import math
 
