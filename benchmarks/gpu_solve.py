@@ -16,13 +16,15 @@ step would: detection, on the GPU and on the CPU (one thread), timed, and whethe
 found the same pairs; then contact_rows on the CPU (one run, timed with detection), and the
 rows filled on the GPU from its indices (DeviceRows), timed, against the CPU's; the GPU's
 colouring (DeviceOrder.colour: its colours and rounds) and support order (support(), from
-the CPU's rows, against the CPU's), timed.
+the CPU's rows, against the CPU's), timed; and the whole collision pass on the GPU
+(DeviceCollisions.resolve), timed.
 Then, every figure a median of --repeats, each from the same rows (copied on the device):
 the GPU's solve in each of DeviceSolve's modes (a launch per pass and colour, or one
 cooperative launch) and the CPU's (soft_step._substeps and restitution_pass, one thread, up
 to --cpu-max spheres), and how far the GPU's velocities and moves are from the CPU's.
 """
 import argparse
+import math
 import pathlib
 import statistics
 import time
@@ -35,6 +37,7 @@ from pool_sim.physics import DEFAULT_EFFECTS, Scene, Spheres
 from pool_sim.physics.contacts import soft_step
 from pool_sim.physics.contacts.detection import detect_contacts
 from pool_sim.physics.contacts.layers import sweep_waves
+from pool_sim.physics.cuda.device_collisions import DeviceCollisions
 from pool_sim.physics.cuda.device_detect import DeviceDetect
 from pool_sim.physics.cuda.device_order import DeviceOrder
 from pool_sim.physics.cuda.device_rows import DeviceRows
@@ -164,6 +167,42 @@ def rows_timing(inputs, ready, scalars, repeats):
             'wave_rounds': orders.rounds.get('waves', 0), 'support_same': same}
 
 
+def pass_timing(inputs, repeats):
+    """{gpu_pass_ms, gpu_pass_ns_per_sphere: the median of a whole collision pass on the
+    GPU (DeviceCollisions.resolve: detection, rows, orders, solve, memory, write-back),
+    each from the step's arrays afresh; pass_put_back: the spheres its guard put back} of
+    a step."""
+    colliding, memory, state, after, _, _ = inputs
+    spheres, effects, dt = colliding.spheres, colliding.scene['effects'], colliding.max_step
+    collisions = DeviceCollisions()
+    cuda = collisions.cuda
+    _, _, pool, contact, settings = colliding._constants
+    gx, gy, gz = colliding.environment.gravity  # the stepper's resting speed, |g| dt
+    world = (tuple(map(float, pool)), 'contact' in effects, tuple(map(float, contact)),
+             'friction' in effects, math.sqrt(gx * gx + gy * gy + gz * gz) * dt,
+             tuple(map(float, settings)), dt)
+    count = spheres.count
+    pristine = [*state, *after, *memory, np.ones(count, np.uint8), np.zeros(count, np.uint8)]
+    device = [cuda.to_device(np.ascontiguousarray(array)) for array in pristine]
+    fixed = (cuda.to_device(spheres.mass), cuda.to_device(spheres.radius))
+    identity, put_back = cuda.to_device(colliding._identity), []
+
+    def prepare():
+        for array, kept in zip(device, pristine):
+            array.copy_to_device(np.ascontiguousarray(kept))
+        cuda.synchronize()
+
+    def run():
+        put_back[:] = [collisions.resolve(tuple(device[:4]), fixed, identity,
+                                          tuple(device[4:7]), device[7], device[8], world)]
+        cuda.synchronize()
+    prepare()
+    run()  # compiles
+    seconds = median_of((prepare, run), repeats)
+    return {'gpu_pass_ms': seconds * 1e3, 'gpu_pass_ns_per_sphere': seconds / count * 1e9,
+            'pass_put_back': put_back[0]}
+
+
 def median_of(function, repeats):
     """Median seconds of function() over repeats calls, each after prepare() (untimed)."""
     prepare, run = function
@@ -235,6 +274,10 @@ def solve_row(count, landing, repeats, cpu_max):
         detected.update(rows_timing(inputs, ready, scalars, repeats))
     except Exception as error:  # noqa: BLE001 (one run on a lent GPU: keep the rest)
         detected['rows_failed'] = failure(error)
+    try:
+        detected.update(pass_timing(inputs, repeats))
+    except Exception as error:  # noqa: BLE001 (one run on a lent GPU: keep the rest)
+        detected['pass_failed'] = failure(error)
     bounds, serial = colour_bounds(ready.colour_start)
     _, waves = sweep_waves(ready.support[0], ready.sphere.size)
     row = {'scene': SCENES[landing], 'spheres': count, 'contacts': ready.rows.shape[0],

@@ -23,6 +23,9 @@ SPHERES = 24
 CASES = [(integrator, list(DEFAULT_EFFECTS)) for integrator in INTEGRATORS] + [
     ('linearly_implicit_euler', ['gravity', 'buoyancy', 'drag', 'lift', 'added_mass',
                                  'wave_radiation', 'contact', 'friction'])]
+# With collisions (soft_step, coloured as a GPU colours): the spheres but the first three
+# crowded in a column over the floor, where they collide and pile up.
+COLLIDING = ('linearly_implicit_euler', [*DEFAULT_EFFECTS, 'collisions'])
 
 
 def scene(backend, integrator, effects, names):
@@ -36,7 +39,14 @@ def scene(backend, integrator, effects, names):
     radius = rng.uniform(0.05, 0.1, count)
     # On the floor and at the ceiling, thrown at them; afloat.
     position[:3, 2], velocity[:2, 2], radius[:2] = [-3.9, 3.9, 0.0], [-2.0, 2.0], 0.1
+    colliding = {}
+    if 'collisions' in effects:
+        position[3:] = np.column_stack([rng.uniform(-0.15, 0.15, (count - 3, 2)),
+                                        rng.uniform(-3.85, -3.5, count - 3)])
+        velocity[3:] *= 0.3
+        colliding = {'contact_solver': 'soft_step', 'soft_step.colouring': 'priority'}
     return Scene({'sphere_names': names, 'backend': backend, 'integrator': integrator,
+                  **colliding,
                   'effects': effects, 'spheres.position': position.ravel().tolist(),
                   'spheres.velocity': velocity.ravel().tolist(),
                   'spheres.radius': radius.tolist(),
@@ -44,10 +54,11 @@ def scene(backend, integrator, effects, names):
                   'spheres.lift_coefficient': rng.uniform(-1.0, 1.0, count).tolist()})
 
 
-def session(backend, integrator, effects):
+def session(backend, integrator, effects, spheres=SPHERES, steps=lambda k: k):
     """{label: array}: the spheres' state after each stage, the guard's count and the
-    spheres it put back."""
-    names = [f's{i}' for i in range(SPHERES)]
+    spheres it put back; with collisions, the contacts remembered too. steps(k): the steps
+    a stage takes where the full session takes k."""
+    names = [f's{i}' for i in range(spheres)]
     sim = Simulation(scene(backend, integrator, effects, names))
     kept = {}
 
@@ -55,41 +66,46 @@ def session(backend, integrator, effects):
         spheres = sim.spheres
         kept[f'{label}.position'] = spheres.position.copy()
         kept[f'{label}.velocity'] = spheres.velocity.copy()
+        if 'collisions' in effects:
+            if sim._device is not None:
+                sim._device.memory_home(sim._memory)
+            for name, array in zip(('keys', 'forces', 'held'), sim._memory):
+                kept[f'{label}.memory_{name}'] = array.copy()
 
     sim.prepare()  # compiles; moves nothing
     keep('prepared')
     sim.run(1, 0.005)
     keep('one')
-    sim.run(40, 0.005)
+    sim.run(steps(40), 0.005)
     keep('first')
     sim.set_mass('s3', 0.02)
     sim.set_radius('s5', 0.3)
     sim.set_external_force('s6', [5.0, 0.0, 40.0])
-    sim.run(30, 0.005)
+    sim.run(steps(30), 0.005)
     keep('changed')
-    forces = np.zeros((SPHERES, 3))
-    forces[:, 2] = np.linspace(-20.0, 20.0, SPHERES)
+    forces = np.zeros((spheres, 3))
+    forces[:, 2] = np.linspace(-20.0, 20.0, spheres)
     sim.set_external_forces(forces)
-    sim.run(30, 0.005)
-    sim.release_external_forces(np.arange(SPHERES) % 2 == 0)
-    sim.run(30, 0.004)
+    sim.run(steps(30), 0.005)
+    sim.release_external_forces(np.arange(spheres) % 2 == 0)
+    sim.run(steps(30), 0.004)
     keep('forced')
     # A velocity no step can take (past every setter's check, so written directly, and
     # said so): the guard puts s7 back where it was, at rest.
     kept['before.recovered'] = np.array(sim.take_recovered())  # unstable light spheres
     sim.spheres.velocity[:, sim.spheres.lookup('s7')] = np.nan
     sim.mark_written('velocity')
-    sim.run(3, 0.005)
+    sim.run(steps(3), 0.005)
     kept['guard.recovered'] = np.array(sim.take_recovered())
     kept['guard.recoveries'] = np.array(sim.recoveries)
     keep('guard')
     grown = names[2:] + ['new0', 'new1']  # two removed, two spawned, the rest reordered
     sim.change_spheres(scene(backend, integrator, effects, grown[::-1]))
-    sim.run(50, 0.005)
+    sim.run(steps(50), 0.005)
     keep('respawned')
-    sim.run(10, 0.005)
+    sim.run(steps(10), 0.005)
     sim.reset()  # straight after a step: the reset's state, not the step's, goes on
-    sim.run(20, 0.005)
+    sim.run(steps(20), 0.005)
     keep('reset')
     return kept
 
@@ -103,5 +119,12 @@ def sessions(backend):
     return kept
 
 
-if __name__ == '__main__':
-    np.savez(sys.argv[1], **sessions('cuda'))
+def colliding_session(backend):
+    """session() with collisions, shortened (a step of the collision pass takes seconds in
+    numba's simulator): 12 spheres, a step a stage for 20 of the full session's."""
+    return session(backend, *COLLIDING, spheres=12, steps=lambda k: max(1, k // 20))
+
+
+if __name__ == '__main__':  # OUT.npz [colliding]
+    np.savez(sys.argv[1], **(colliding_session('cuda') if sys.argv[2:] == ['colliding']
+                             else sessions('cuda')))

@@ -225,6 +225,63 @@ def cpu_orders(case):
     return {f'order_{name}': value for name, value in made.items()}
 
 
+RESOLVED = ('old_position', 'position', 'velocity', 'flagged', 'failed', 'memory_keys',
+            'memory_forces', 'memory_held')
+
+
+def resolve_inputs(case):
+    """Copies of what a rows_case's step gives soft_step.resolve_collisions (every sphere
+    flagged, none failed: the write-back clears the members' flags) and its constants."""
+    from pool_sim.physics.contacts.soft_step import RESTING_FACTOR
+    arrays = {name: case[name].copy() for name in (*STEP, 'memory_keys', 'memory_forces',
+                                                    'memory_held')}
+    count = case['radius'].size
+    arrays.update(flagged=np.ones(count, dtype=np.uint8), failed=np.zeros(count, np.uint8))
+    constants = (tuple(map(float, case['faces'])), bool(case['has_faces']),
+                 tuple(map(float, case['contact'])), bool(case['has_friction']),
+                 float(case['threshold']) / RESTING_FACTOR, tuple(map(float, case['settings'])),
+                 float(case['dt']))
+    return arrays, constants
+
+
+def gpu_resolve(case, up):
+    """DeviceCollisions.resolve on a rows_case's step: what it leaves, on the host."""
+    from pool_sim.physics.cuda.device_collisions import DeviceCollisions
+    arrays, constants = resolve_inputs(case)
+    device = {name: up(value) for name, value in arrays.items()}
+    put_back = DeviceCollisions().resolve(
+        tuple(device[name] for name in STEP), (up(case['mass']), up(case['radius'])),
+        up(case['identity']), tuple(device[name] for name in ('memory_keys', 'memory_forces',
+                                                              'memory_held')),
+        device['flagged'], device['failed'], constants)
+    return {**{f'resolved_{name}': device[name].copy_to_host() for name in RESOLVED},
+            'resolved_put_back': np.int64(put_back)}
+
+
+def cpu_resolve(case):
+    """resolve_collisions on the CPU with the GPU's colouring: detect_contacts,
+    contact_rows(..., by_priority=True), settle; what gpu_resolve should leave."""
+    from pool_sim.physics.contacts import soft_step
+    from pool_sim.physics.contacts.detection import detect_contacts
+    arrays, constants = resolve_inputs(case)
+    faces, has_faces, contact, has_friction, resting_speed, settings, dt = constants
+    step = tuple(arrays[name] for name in STEP)
+    memory = tuple(arrays[name] for name in ('memory_keys', 'memory_forces', 'memory_held'))
+    none = np.empty(0), np.empty(0, dtype=np.int64)
+    contacts, used_real, used_whole = detect_contacts(*step, case['radius'], dt, *none)
+    threshold = soft_step.RESTING_FACTOR * resting_speed
+    settings = np.array(settings)
+    ready = soft_step.contact_rows(contacts, used_real, used_whole, *step, case['mass'],
+                                   case['radius'], faces, has_faces, contact, has_friction,
+                                   case['identity'], *memory, settings, threshold, dt,
+                                   *none, True)
+    put_back = soft_step.settle(ready, step[0], step[2], step[3], arrays['failed'],
+                                arrays['flagged'], contact[0], *memory, settings, threshold,
+                                dt)
+    return {**{f'resolved_{name}': arrays[name] for name in RESOLVED},
+            'resolved_put_back': np.int64(put_back)}
+
+
 def cpu_detect(case):
     """detect_contacts' Contacts on the CPU, as DeviceDetect's dict."""
     from pool_sim.physics.contacts.detection import detect_contacts
@@ -300,14 +357,17 @@ def main(cases_path, out_path):
     from pool_sim.physics.cuda.device_solve import DeviceSolve, MODES
     results = {}
     cuda = load_cuda()
+
+    def up(array):
+        return cuda.to_device(np.ascontiguousarray(array))
     for order in THREAD_ORDERS:
         numbered(order)
         for label, case in read_cases(cases_path).items():
             if label.startswith(('rows', 'order')):
-                made = gpu_orders(case, lambda array: cuda.to_device(np.ascontiguousarray(
-                    array)))
+                made = gpu_orders(case, up)
                 if label.startswith('rows'):
                     made.update(gpu_rows(case))
+                    made.update(gpu_resolve(case, up))
                 results.update({f'{label}.{order}.{name}': value
                                 for name, value in made.items()})
                 continue

@@ -12,7 +12,7 @@ from unittest import mock
 import numpy as np
 import pytest
 
-from cuda_session import CASES, sessions
+from cuda_session import CASES, colliding_session, sessions
 from pool_sim.physics import InvalidInput, Scene, Simulation
 from pool_sim.physics.cuda import load_cuda, simulated, unavailable
 from pool_sim.physics.effects import DEFAULT_EFFECTS, effect_flags
@@ -58,6 +58,34 @@ def test_every_integrator_with_the_default_effects_compiles_to_ptx_for_compute_c
 
 
 @pytest.mark.skipif(simulated(), reason='the simulator has no compiler')
+@pytest.mark.parametrize('which', ['smooth', 'faces'])
+def test_the_colliding_step_s_kernels_compile_to_ptx_for_compute_capability_9(which):
+    # With collisions a step is the smooth kernel, the collision pass (test_cuda_collisions)
+    # and the faces' kernel: those two, for the default effects.
+    cuda = load_cuda()
+    from numba.core import types as nb
+    from numba.cuda import dispatcher
+    from pool_sim.physics.cuda.kernels import faces_source, smooth_source
+    vector, matrix = nb.Array(nb.float64, 1, 'C'), nb.Array(nb.float64, 2, 'C')
+    flags = nb.Array(nb.uint8, 1, 'C')
+    properties = nb.Tuple((vector,) * 7 + (matrix, matrix, vector, vector))
+    world = (properties, vector, nb.Array(nb.float64, 3, 'C'), vector)
+    listed = effect_flags(DEFAULT_EFFECTS, 'cap', scalar=True)
+    if which == 'smooth':
+        source = smooth_source(INTEGRATOR_CODES['linearly_implicit_euler'], listed, True)
+        signature = (matrix,) * 4 + world + (flags, nb.float64)
+    else:
+        source = faces_source(listed, True, True)
+        signature = ((matrix,) * 4 + world
+                     + (vector, flags, flags, nb.Array(nb.int64, 1, 'C'), nb.float64))
+    hopper = types.SimpleNamespace(compute_capability=(9, 0))
+    with mock.patch.object(dispatcher, 'get_current_device', lambda: hopper):
+        ptx, _ = cuda.compile_ptx(source, signature, cc=(9, 0))
+    assert '.target sm_90' in ptx and '.entry' in ptx and '.const' not in ptx
+    assert ('atom' in ptx) == (which == 'faces')  # the guard's integer count only
+
+
+@pytest.mark.skipif(simulated(), reason='the simulator has no compiler')
 def test_every_effect_without_contact_compiles_to_ptx():
     ptx = ptx_of('rk4', ['gravity', 'buoyancy', 'drag', 'lift', 'added_mass',
                          'wave_radiation'], has_contact=False, has_friction=False)
@@ -75,10 +103,14 @@ def simulator_environment():
 
 @pytest.fixture(scope='module')
 def simulated_sessions(tmp_path_factory):
-    """cuda_session's sessions on `backend: cuda`, in numba's CUDA simulator in a child
-    process (the simulator replaces numba.cuda for the whole process)."""
-    out = tmp_path_factory.mktemp('cuda') / 'sessions.npz'
-    child = subprocess.run([sys.executable, '-m', 'cuda_session', str(out)],
+    """cuda_session's sessions on `backend: cuda`, in numba's CUDA simulator."""
+    return session_in_simulator(tmp_path_factory.mktemp('cuda') / 'sessions.npz')
+
+
+def session_in_simulator(out, *arguments):
+    """What `python -m cuda_session OUT ARGUMENTS...` keeps, run in numba's CUDA simulator
+    in a child process (the simulator replaces numba.cuda for the whole process)."""
+    child = subprocess.run([sys.executable, '-m', 'cuda_session', str(out), *arguments],
                            cwd=ROOT / 'msg_tests', env=simulator_environment(),
                            capture_output=True, text=True, timeout=300)
     assert child.returncode == 0, child.stderr[-4000:]
@@ -88,14 +120,17 @@ def simulated_sessions(tmp_path_factory):
 
 def test_the_simulated_gpu_agrees_with_the_cpu_backend_through_every_change(
         simulated_sessions):
-    on_cpu = sessions('cpu')
-    assert sorted(on_cpu) == sorted(simulated_sessions)
+    # Bit for bit: the same functions, the same order of operations (a real GPU fuses
+    # multiplies and adds, which the simulator does not: docs/gpu.md).
+    assert_the_same(sessions('cpu'), simulated_sessions)
+
+
+def assert_the_same(on_cpu, on_gpu):
+    """Every array a session kept, the same on both backends (and finite), bit for bit."""
+    assert sorted(on_cpu) == sorted(on_gpu)
     for label, value in on_cpu.items():
-        gpu = simulated_sessions[label]
-        assert gpu.shape == value.shape, label
-        # Bit for bit: the same functions, the same order of operations (a real GPU fuses
-        # multiplies and adds, which the simulator does not: docs/gpu.md).
-        assert np.all(np.isfinite(gpu)), label
+        gpu = on_gpu[label]
+        assert gpu.shape == value.shape and np.all(np.isfinite(gpu)), label
         assert np.array_equal(gpu, value), label
 
 
@@ -128,10 +163,38 @@ def test_marking_an_array_the_spheres_do_not_have_is_refused(name):
         sim.mark_written('velocity', name)
 
 
-def test_collisions_on_the_gpu_are_refused_until_they_run_there():
-    with pytest.raises(InvalidInput, match='does not run the collisions effect yet'):
+@pytest.mark.parametrize('keys, reason', [
+    ({'contact_solver': 'sequential_impulses'}, 'contact_solver: soft_step only'),
+    ({'contact_solver': 'soft_step', 'soft_step.colouring': 'found'},
+     'colours contacts by priority only')])
+def test_collisions_on_the_gpu_other_than_soft_step_s_by_priority_are_refused(keys, reason):
+    with pytest.raises(InvalidInput, match=reason):
         Simulation(Scene({'sphere_names': ['a'], 'backend': 'cuda',
-                          'effects': [*DEFAULT_EFFECTS, 'collisions']}))
+                          'effects': [*DEFAULT_EFFECTS, 'collisions'], **keys}))
+
+
+@pytest.fixture(scope='module')
+def colliding_session_on_gpu(tmp_path_factory):
+    """cuda_session's colliding session on `backend: cuda`, in numba's CUDA simulator."""
+    return session_in_simulator(tmp_path_factory.mktemp('cuda_colliding') / 'session.npz',
+                                'colliding')
+
+
+def test_colliding_spheres_on_the_simulated_gpu_step_as_on_the_cpu_through_every_change(
+        colliding_session_on_gpu):
+    # The whole step with collisions (detection, rows, orders, solve, memory, write-back,
+    # faces, guard) through set_mass, set_radius, forces, a put-back, a spawn and a remove,
+    # a reset: the CPU backend's numbers when it colours as the GPU does.
+    assert_the_same(colliding_session('cpu'), colliding_session_on_gpu)
+
+
+def test_the_colliding_session_exercises_what_it_claims(colliding_session_on_gpu):
+    kept = colliding_session_on_gpu
+    for label in ('one', 'first', 'changed', 'respawned', 'reset'):
+        assert kept[f'{label}.memory_held'].sum() >= 5, label  # contacts, remembered
+    assert 7 in kept['guard.recovered']  # the guard put s7 back in a colliding step
+    z = kept['first.position'][2, 3:]
+    assert np.all(z < -3.0)  # the crowd is on the floor, in a pile
 
 
 @pytest.mark.parametrize('backend', ['gpu', 'CUDA', '', 'cuda ', 3, None])

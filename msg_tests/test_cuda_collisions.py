@@ -16,8 +16,9 @@ import numba
 import numpy as np
 import pytest
 
-from cuda_solve_session import cpu_detect, cpu_orders, cpu_solve, ends_and_ground, OUTPUTS, \
-    read_cases, ROWS_FILLED, THREAD_ORDERS, write_cases
+from cuda_solve_session import cpu_detect, cpu_orders, cpu_resolve, cpu_solve, \
+    ends_and_ground, OUTPUTS, read_cases, resolve_inputs, ROWS_FILLED, THREAD_ORDERS, \
+    write_cases
 from pool_sim.physics.contacts.colouring import colour_by_priority, colour_priority, COLOURS
 from pool_sim.physics.contacts.detection import _bounding_spheres, END_VELOCITY, RADIUS, \
     START_VELOCITY
@@ -87,24 +88,33 @@ ORDER_SAMPLES = {
     'wave_round_kernel': (PAIRS, WHOLE, WHOLE, WHOLE, WHOLE, WHOLE),
     'gather_kernel': (WHOLE, PAIRS, BODIES, PAIRS, BODIES),
 }
+SETTLE_SAMPLES = {
+    'remember_kernel': (ROWS, WHOLE, WHOLE, WHOLE, WHOLE, WHOLE, np.zeros((2, 8), np.int64),
+                        np.zeros((2, 8, 4)), WHOLE, 800.0),
+    'forget_kernel': (WHOLE,),
+    'write_back_kernel': (WHOLE, BODIES, BODIES, AXES, AXES, AXES, np.zeros(2, np.uint8),
+                          np.zeros(2, np.uint8), WHOLE),
+}
 # Kernels whose atomics are minima, maxima or integer counts (the same in any order).
 ATOMIC = ('fastest_kernel', 'substeps_kernel', 'bounds_kernel', 'levels_kernel',
           'extents_kernel', 'write_kernel', 'colour_round_kernel', 'heights_kernel',
-          'wave_round_kernel')
+          'wave_round_kernel', 'write_back_kernel')
 
 
 @pytest.mark.skipif(simulated(), reason='the simulator has no compiler')
 @pytest.mark.parametrize('module, name', [('contact_kernels', name) for name in sorted(SAMPLES)]
                          + [('detect_kernels', name) for name in sorted(DETECT_SAMPLES)]
                          + [('rows_kernels', name) for name in sorted(ROWS_SAMPLES)]
-                         + [('order_kernels', name) for name in sorted(ORDER_SAMPLES)])
+                         + [('order_kernels', name) for name in sorted(ORDER_SAMPLES)]
+                         + [('settle_kernels', name) for name in sorted(SETTLE_SAMPLES)])
 def test_every_collision_kernel_compiles_to_ptx_for_compute_capability_9(module, name):
     # As test_cuda_backend.ptx_of: the current device's compute capability is asked for
     # while an @njit function a kernel calls compiles; answered with 9.0.
     cuda = load_cuda()
     from numba.cuda import dispatcher
     kernel = getattr(importlib.import_module(f'pool_sim.physics.cuda.{module}'), name)
-    samples = {**SAMPLES, **DETECT_SAMPLES, **ROWS_SAMPLES, **ORDER_SAMPLES}[name]
+    samples = {**SAMPLES, **DETECT_SAMPLES, **ROWS_SAMPLES, **ORDER_SAMPLES,
+               **SETTLE_SAMPLES}[name]
     signature = tuple(numba.typeof(value) for value in samples)
     hopper = types.SimpleNamespace(compute_capability=(9, 0))
     with mock.patch.object(dispatcher, 'get_current_device', lambda: hopper):
@@ -179,6 +189,37 @@ def test_the_contacts_indices_made_on_the_gpu_are_the_cpu_s(solved, label, order
     for name, value in expected.items():
         gpu = on_gpu[f'{label}.{order}.index_{name}']
         assert gpu.shape == value.shape and np.array_equal(gpu, value), name
+
+
+@pytest.mark.parametrize('order', THREAD_ORDERS)
+@pytest.mark.parametrize('label', ['rows_landing', 'rows_rest', 'rows_levels'])
+def test_the_collision_pass_on_the_gpu_is_the_cpu_s_with_its_colouring_bit_for_bit(
+        solved, label, order):
+    # Detection, rows, orders, solve, memory and write-back: resolve_collisions' step with
+    # the contacts coloured by colour_priority, as the CPU makes it.
+    chosen, on_gpu = solved
+    for name, value in cpu_resolve(chosen[label]).items():
+        gpu = on_gpu[f'{label}.{order}.{name}']
+        assert gpu.shape == value.shape and np.array_equal(gpu, value), name
+
+
+def test_the_collision_pass_cases_exercise_what_they_claim(solved):
+    chosen, on_gpu = solved
+    for label in ('rows_landing', 'rows_rest', 'rows_levels'):
+        case = chosen[label]
+        arrays, _ = resolve_inputs(case)
+        members = case['sphere']
+        flagged = on_gpu[f'{label}.forward.resolved_flagged']
+        assert np.all(flagged[members] == 0) and flagged.sum() == flagged.size - members.size
+        held = on_gpu[f'{label}.forward.resolved_memory_held']
+        assert held.sum() >= case['slot'].size // 2, label  # remembered, most of them
+        moved = on_gpu[f'{label}.forward.resolved_position'] - arrays['position']
+        assert np.max(np.abs(moved[:, members])) > 0.0, label  # the solve moved them
+        # The GPU's colouring is not the CPU's, so neither is its step.
+        slot = on_gpu[f'{label}.forward.order_slot']
+        assert not np.array_equal(slot, case['slot']), label
+    landing = on_gpu['rows_landing.forward.resolved_velocity']
+    assert not np.array_equal(landing, chosen['rows_landing']['velocity'])
 
 
 ORDER_LABELS = ['rows_landing', 'rows_rest', 'rows_levels', 'order_crowd', 'order_star',

@@ -12,13 +12,16 @@ import pytest
 
 from benchmarks.common import dropped_scene
 from pool_sim.physics import INTEGRATORS, Simulation
-from pool_sim.physics.contacts.colouring import colour_contacts, COLOURS
+from pool_sim.physics.contacts.colouring import colour_by_priority, colour_contacts, COLOURS
 from pool_sim.physics.contacts.detection import overlaps
 from pool_sim.physics.contacts.memory import CONTACTS_PER_SPHERE
 from test_collisions import lattice, log_uniform, spheres_scene
 
 SOFT = {'contact_solver': 'soft_step'}
 PILE_EFFECTS = ['gravity', 'contact', 'friction', 'collisions']
+# The soft step's colourings (soft_step.colouring): as found, the CPU's; by priority, the
+# GPU's (on the CPU here: the same sweep, docs/gpu.md).
+COLOURINGS_SWEPT = ['found', 'priority']
 
 
 def soft_scene(position, velocity=None, **keys):
@@ -147,9 +150,11 @@ def test_spheres_dropped_through_the_surface_in_a_crowd_do_not_sink_into_each_ot
     assert deepest < 0.2
 
 
+@pytest.mark.parametrize('colouring', COLOURINGS_SWEPT)
 @pytest.mark.parametrize('densities, speed', [([340, 430] + [2500] * 8, 1.7),
                                               ([340] + [3000] * 9, 2.5)])
-def test_a_column_landing_on_floaters_does_not_crush_them_into_each_other(densities, speed):
+def test_a_column_landing_on_floaters_does_not_crush_them_into_each_other(densities, speed,
+                                                                          colouring):
     # A column of ten 3 cm spheres falling in water onto the floor, the lowest ones lighter
     # than water (kg/m^3), under heavy ones: as the 10 000-sphere landing's deepest pair.
     # Without the support sweep the column drove them 0.22 (0.29) of a radius into each
@@ -161,7 +166,8 @@ def test_a_column_landing_on_floaters_does_not_crush_them_into_each_other(densit
          for k, (x, y) in enumerate(jitter)], [(0.0, 0.0, -speed)] * len(densities),
         radius=radius, mass=[d * 4 / 3 * math.pi * radius**3 for d in densities],
         effects=['gravity', 'buoyancy', 'drag', 'contact', 'friction', 'collisions'],
-        contact_solver='soft_step', contact__restitution=0.5, water__surface_z=4.0))
+        contact_solver='soft_step', contact__restitution=0.5, water__surface_z=4.0,
+        soft_step__colouring=colouring))
     deepest = 0.0
     for _ in range(120):
         sim.step()
@@ -193,12 +199,14 @@ def test_a_sphere_dropped_on_one_resting_on_the_floor_rebounds(restitution, uppe
     assert max(heights[landed:]) > 0.8 * restitution**2 * 0.2
 
 
-def test_a_dropped_pile_of_spheres_denser_than_water_comes_to_rest():
+@pytest.mark.parametrize('colouring', COLOURINGS_SWEPT)
+def test_a_dropped_pile_of_spheres_denser_than_water_comes_to_rest(colouring):
     # The contact issue's resting pile, at 2 000 spheres (results/collisions/resting_pile.md
     # has 10 000): every sphere sinks, lands on the floor or on others, and rests. Its goal:
     # rms under 5 mm/s and none over 5 cm/s. Measured: rms 3e-14 m/s from 6 s on (0.02-0.06
     # with sequential_impulses, whose pile keeps jittering).
-    sim = Simulation(dropped_scene(2000, solver='soft_step', least_density=1500.0))
+    sim = Simulation(dropped_scene(2000, solver='soft_step', least_density=1500.0)
+                     .with_values(soft_step={'colouring': colouring}))
     sim.advance(6.0)
     for _ in range(4):
         sim.advance(0.5)
@@ -279,12 +287,13 @@ def test_a_bounce_with_restitution_one_never_rises_above_the_drop(drop_m):
     assert highest_z_of_the_top_sphere(sim, 3.0) <= top_z + 1e-6
 
 
-def test_a_resting_pile_does_not_creep():
+@pytest.mark.parametrize('colouring', COLOURINGS_SWEPT)
+def test_a_resting_pile_does_not_creep(colouring):
     # avian #385, godot #70816: jitter that walks a stack. 125 spheres settle for 3 s;
     # over the next 2 s none moves more than a hundredth of its radius.
     radius = 0.05
     sim = Simulation(soft_scene(lattice(125, 0.105, -3.7), radius=radius,
-                                effects=PILE_EFFECTS,
+                                effects=PILE_EFFECTS, soft_step__colouring=colouring,
                                 pool__min=[-0.3, -0.3, -4.0], pool__max=[0.3, 0.3, 4.0]))
     sim.advance(3.0)
     settled = sim.spheres.position.copy()
@@ -399,16 +408,18 @@ def test_a_reset_forgets_every_contact():
 
 # Colours.
 
+@pytest.mark.parametrize('colour', ['found', 'priority'])
 @settings(deadline=None)
 @given(st.integers(1, 400), st.integers(2, 60), st.integers(0, 2**32 - 1))
-def test_no_two_contacts_of_one_colour_share_a_sphere(contacts, spheres, seed):
+def test_no_two_contacts_of_one_colour_share_a_sphere(colour, contacts, spheres, seed):
     rng = np.random.default_rng(seed)
     ground = spheres  # the row of the faces: shared freely
     ends = np.empty((contacts, 2), dtype=np.int64)
     ends[:, 0] = rng.integers(0, spheres, contacts)
     ends[:, 1] = np.where(rng.uniform(size=contacts) < 0.3, ground,
                           (ends[:, 0] + rng.integers(1, spheres, contacts)) % spheres)
-    slot, colour_start = colour_contacts(ends, ground, np.zeros(contacts, np.int64), 0)
+    slot, colour_start = (colour_contacts(ends, ground, np.zeros(contacts, np.int64), 0)
+                          if colour == 'found' else colour_by_priority(ends, ground))
     assert sorted(slot[:contacts].tolist()) == list(range(contacts))  # each once
     assert colour_start[0] == 0 and colour_start[-1] == contacts
     in_slot = np.empty(contacts, dtype=np.int64)

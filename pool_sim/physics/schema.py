@@ -20,6 +20,7 @@ import numpy as np
 
 from .contact import ContactParameters
 from .contacts import DEFAULT_SOLVER, soft_step, SOLVERS
+from .contacts.colouring import COLOURINGS
 from .cuda import BACKENDS
 from .effects import DEFAULT_EFFECTS, EFFECTS
 from .integrators import DEFAULT_INTEGRATOR, INTEGRATORS
@@ -108,6 +109,13 @@ GLOBAL_KEYS = {
     'soft_step.push_out_speed': Key('number', soft_step.PUSH_OUT_SPEED, 'soft_step: the '
                                     'fastest an overlap is pushed apart, m/s', 0.0, 1e3,
                                     'm/s'),
+    'soft_step.colouring': Key('string', 'auto', "soft_step: the order its contacts are "
+                               'coloured in, which is the order they are swept in: found (as '
+                               'detection finds them), priority (by a hash of their index, '
+                               "as a GPU colours them: on the CPU, the GPU's sweep), or "
+                               'auto (found on the CPU, priority on a GPU); docs/gpu.md',
+                               allowed=(lambda v: v in COLOURINGS,
+                                        f'one of {list(COLOURINGS)}')),
     'backend': Key('string', 'cpu', 'where the step runs: cpu, or cuda (one NVIDIA GPU, '
                    "numba-cuda: pip install 'pool_sim[cuda]'; docs/gpu.md)",
                    allowed=(lambda v: v in BACKENDS, f'one of {list(BACKENDS)}')),
@@ -115,7 +123,8 @@ GLOBAL_KEYS = {
                            *PHYSICS_RATE_RANGE, 'Hz'),
 }
 
-# The soft_step solver's settings, in the order it takes them (contacts/soft_step.py).
+# The soft_step solver's settings, in the order it takes them (contacts/soft_step.py),
+# then whether it colours by priority (stepper.scene_constants).
 SOLVER_SETTINGS = ('soft_step.substeps', 'soft_step.stiffness_hz', 'soft_step.damping_ratio',
                    'soft_step.push_out_speed')
 

@@ -121,7 +121,11 @@ class Simulation:
         if not 0.0 < dt < math.inf:  # NaN is not either
             raise InvalidInput(f'dt: must be finite and > 0, got {shown(dt)}')
         if self._device is not None:
-            put_back, indices = self._device.run(self._spheres, int(steps), dt)
+            remembered = None
+            if self._remembers:
+                self._memory = self._contact_memory(self._spheres.count)
+                remembered = (self._identity, self._memory)
+            put_back, indices = self._device.run(self._spheres, int(steps), dt, remembered)
             if put_back:
                 self._count_recovered(indices, dt, put_back)
             self.time += steps * dt
@@ -133,9 +137,7 @@ class Simulation:
                              np.zeros(spheres.count, dtype=np.uint8),
                              *collision_workspace(spheres.count if 'collisions' in
                                                   self.scene['effects'] else 0))
-        remembered = spheres.count if self._remembers else 0
-        if self._memory is None or self._memory[0].shape[0] != remembered:
-            self._memory = contact_memory(remembered)
+        self._memory = self._contact_memory(spheres.count if self._remembers else 0)
         arrays = (spheres.position, spheres.velocity, *properties_of(spheres),
                   *self._constants)
         put_back = self.stepper.run(arrays, (*self._scratch, self._identity, *self._memory),
@@ -146,6 +148,12 @@ class Simulation:
             failed[indices] = 0
             self._count_recovered(indices, dt, put_back)
         self.time += steps * dt
+
+    def _contact_memory(self, count):
+        """The contact memory for count spheres: the one kept, or a new one, empty."""
+        if self._memory is None or self._memory[0].shape[0] != count:
+            return contact_memory(count)
+        return self._memory
 
     def prepare(self):
         """Compile the step this many spheres take (or load it from numba's cache) without
@@ -243,6 +251,8 @@ class Simulation:
         area, external force, ...); a new one starts at the scene's initial values with no
         external force; time goes on. reset() then returns to the new scene at time 0.
         """
+        if self._device is not None and self._memory is not None:
+            self._device.memory_home(self._memory)  # carried below
         for key in GLOBAL_KEYS:  # the physics' own: a runner's keys are its own business
             value = scene[key]
             if key != 'sphere_names' and value != self.scene[key]:

@@ -43,6 +43,7 @@ import numba
 import numpy as np
 
 from .contacts import DEFAULT_SOLVER, SOLVERS, SOLVES_FACES
+from .contacts.colouring import by_priority
 from .effects import effect_flags
 from .schema import SOLVER_SETTINGS
 from .integrators import INTEGRATORS
@@ -397,13 +398,15 @@ def environment_array(env):
 def scene_constants(scene):
     """What run_steps takes of a scene's world, after the spheres' arrays: (environment
     (12,), the wave table, pool (6,) m: corner_min then corner_max, contact (4,):
-    ContactParameters' fields, the soft_step solver's settings (4,)), float64."""
+    ContactParameters' fields, the soft_step solver's settings (5,): SOLVER_SETTINGS, then
+    1 if it colours by priority, else 0), float64."""
     environment = scene.environment()
     pool = environment.pool
+    priority = by_priority(scene['soft_step.colouring'], scene['backend'])
     return (environment_array(environment), WAVE_TABLE,
             np.concatenate([pool.corner_min, pool.corner_max]).astype(float),
             np.array(dataclasses.astuple(scene.contact_parameters()), dtype=float),
-            np.array([scene[key] for key in SOLVER_SETTINGS], dtype=float))
+            np.array([*(scene[key] for key in SOLVER_SETTINGS), float(priority)]))
 
 
 def environment_tuple(env):

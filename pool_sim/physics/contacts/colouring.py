@@ -18,6 +18,15 @@ from .detection import take
 
 # Colours 0..COLOURS - 2 share no sphere; the last takes what is left (swept in order).
 COLOURS = 64
+# The scene's soft_step.colouring: as found, by colour_priority, or found on the CPU and
+# by priority on a GPU (which colours no other way).
+COLOURINGS = ('auto', 'found', 'priority')
+
+
+def by_priority(colouring, backend):
+    """Whether a scene's soft step colours by colour_priority (soft_step.colouring, the
+    backend)."""
+    return colouring == 'priority' or (colouring == 'auto' and backend == 'cuda')
 
 
 @numba.njit(error_model='numpy')

@@ -108,8 +108,11 @@ def counting_sort(keys, buckets, wholes, used_whole):
 
 @numba.njit(error_model='numpy', inline='always')
 def _cell_of(coordinate, origin, size, cells):
-    """The cell (0..cells-1) a coordinate m falls in along one axis of a level's grid."""
-    return min(max(int((coordinate - origin) / size), 0), cells - 1)
+    """The cell (0..cells-1) a coordinate m falls in along one axis of a level's grid; 0
+    for one that is not a number (a sphere the step guard will put back), on a CPU and a
+    GPU alike (which convert NaN to an integer differently)."""
+    # max(0.0, NaN) is 0.0 (min and max keep their first argument unless the other wins).
+    return int(min(max(0.0, (coordinate - origin) / size), cells - 1.0))
 
 
 @numba.njit(error_model='numpy')

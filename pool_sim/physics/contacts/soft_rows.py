@@ -241,9 +241,18 @@ def remember(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memor
     """This step's contacts as forces (N) in memory_* for the next step, each in its home
     row, in contact order (by_home's: contacts of one home in the order they come; as
     many as a row holds: the rest start from none)."""
-    per_second = settings[0] / dt
     memory_held[:] = 0
-    for q in range(keys.size):
+    remember_range(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memory_held,
+                   settings[0] / dt, 0, keys.size)
+
+
+@numba.njit(error_model='numpy')
+def remember_range(rows, slot, keys, homes, by_home, memory_keys, memory_forces,
+                   memory_held, per_second, first, last):
+    """remember's contacts by_home[first:last], in order: each as forces (N: its impulses
+    x per_second) in the next free slot of its home row, if the row has one. (A GPU thread
+    takes one home row's range.)"""
+    for q in range(first, last):
         c = by_home[q]
         home = homes[c]
         k = memory_held[home]

@@ -38,7 +38,7 @@ import numba
 import numpy as np
 
 from ..kernels.step_guard import finite, put_back
-from .colouring import colour_contacts
+from .colouring import colour_by_priority, colour_contacts
 from .layers import bottom_up_order
 from .face_crossing import bound_face_crossings
 from .soft_contact import COLUMNS, GAP, NX, NY, NZ, carry_contact, restitute_contact, \
@@ -91,7 +91,8 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     the spheres solved here (their faces are solved here too); identity (n,) int64, each
     sphere's, unique over the run; memory_keys, memory_forces and memory_held: last step's
     contacts (memory.contact_memory's arrays, a row per sphere), replaced by this step's;
-    settings: (substeps, stiffness_hz, damping_ratio, push_out_speed m/s).
+    settings: (substeps, stiffness_hz, damping_ratio, push_out_speed m/s, 1 to colour by
+    priority (colouring.py) or 0).
 
     Returns how many spheres the step guard put back (flagged in failed)."""
     count = radius.size
@@ -107,23 +108,42 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     ready = contact_rows(contacts, used_real, used_whole, old_position, old_velocity,
                          position, velocity, mass, radius, faces, has_faces, contact,
                          has_friction, identity, memory_keys, memory_forces, memory_held,
-                         settings, threshold, dt, reals, wholes)
+                         settings, threshold, dt, reals, wholes, settings[4] != 0.0)
+    return settle(ready, old_position, position, velocity, failed, flagged, contact[0],
+                  memory_keys, memory_forces, memory_held, settings, threshold, dt)
+
+
+@numba.njit(error_model='numpy')
+def settle(ready, old_position, position, velocity, failed, flagged, restitution,
+           memory_keys, memory_forces, memory_held, settings, threshold, dt):
+    """The rest of resolve_collisions once contact_rows made ready (a Prepared): the
+    substeps, the restitution pass, the contacts remembered, each member written back
+    (write_members). Returns how many spheres the step guard put back."""
     supported = np.zeros(ready.sphere.size, dtype=np.bool_)  # _support_sweep's scratch
     _substeps(ready.rows, ready.solve_order, ready.velocity, ready.moved, ready.change,
               ready.inverse_mass, settings, dt, ready.support, threshold, supported)
     restitution_pass(ready.rows, ready.solve_order, ready.velocity, ready.inverse_mass,
-                     threshold, contact[0], ready.bounces)
+                     threshold, restitution, ready.bounces)
     remember(ready.rows, ready.slot, ready.keys, ready.homes, ready.by_home, memory_keys,
              memory_forces, memory_held, settings, dt)
-    sphere, moved, velocity_rows = ready.sphere, ready.moved, ready.velocity
-    members = sphere.size
+    return write_members(ready.sphere, ready.moved, ready.velocity, old_position, position,
+                         velocity, failed, flagged, 0, ready.sphere.size, 1)
+
+
+@numba.njit(error_model='numpy')
+def write_members(sphere, moved, velocity_rows, old_position, position, velocity, failed,
+                  flagged, start, stop, step):
+    """Members start, start + step, ... below stop: each one's solved path into its
+    sphere's position and velocity (its faces are done: its flag cleared), then the step
+    guard. Returns how many spheres it put back. (A range, not one member: a call a member
+    costs the CPU's loop its speed; a GPU thread passes its own.)"""
     put_back_count = 0
-    for k in range(members):
+    for k in range(start, stop, step):
         i = sphere[k]
         for axis in range(3):
             position[axis, i] = old_position[axis, i] + moved[k, axis]
             velocity[axis, i] = velocity_rows[k, axis]
-        flagged[i] = 0  # its faces are done
+        flagged[i] = 0
         if failed[i] or finite((position[0, i], position[1, i], position[2, i],
                                 velocity[0, i], velocity[1, i], velocity[2, i])):
             continue
@@ -136,11 +156,12 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
 def contact_rows(contacts, used_real, used_whole, old_position, old_velocity, position,
                  velocity, mass, radius, faces, has_faces, contact, has_friction, identity,
                  memory_keys, memory_forces, memory_held, settings, threshold, dt, reals,
-                 wholes):
+                 wholes, by_priority):
     """What the substeps solve on (a Prepared), made from detection's contacts (at least
     one pair) and the workspace past what detection used (used_real, used_whole); threshold:
-    the restitution pass's, m/s; the other arguments as resolve_collisions takes them.
-    Reads last step's memory, writes none."""
+    the restitution pass's, m/s; by_priority: colour as the GPU does
+    (colouring.colour_by_priority), not in the order the contacts come; the other arguments
+    as resolve_collisions takes them. Reads last step's memory, writes none."""
     count, pairs = radius.size, contacts.pairs
     sphere, row_of, state_row, used_whole = members_of(pairs, contacts.order, count, wholes,
                                                        used_whole)
@@ -154,7 +175,10 @@ def contact_rows(contacts, used_real, used_whole, old_position, old_velocity, po
     by_home, _, used_whole = counting_sort(homes, count, wholes, used_whole)
     rows, used_real = take(reals, used_real, COLUMNS * total)
     rows = rows.reshape((total, COLUMNS))
-    slot, colour_start = colour_contacts(ends, members, wholes, used_whole)
+    if by_priority:
+        slot, colour_start = colour_by_priority(ends, members)
+    else:
+        slot, colour_start = colour_contacts(ends, members, wholes, used_whole)
     velocity_rows, moved, change, inverse_mass = body_rows(sphere, state_row, state, mass,
                                                            settings, reals, used_real)
     bounces = np.empty(total, dtype=np.bool_)

@@ -38,13 +38,17 @@ class DeviceState:
         configuration = (INTEGRATOR_CODES[scene['integrator']],
                          effect_flags(effects, submerged_volume, scalar=True),
                          'contact' in effects, 'friction' in effects)
-        environment, _, pool, contact, _ = scene_constants(scene)
-        return cls(effects, configuration, (environment, pool, contact))
+        if 'collisions' in effects and scene['contact_solver'] != 'soft_step':
+            raise InvalidInput('backend: cuda runs the collisions effect with contact_solver: '
+                               f"soft_step only, not {scene['contact_solver']}")
+        if 'collisions' in effects and scene['soft_step.colouring'] == 'found':
+            raise InvalidInput('backend: cuda colours contacts by priority only '
+                               '(soft_step.colouring: auto or priority, not found; '
+                               'docs/gpu.md)')
+        environment, _, pool, contact, settings = scene_constants(scene)
+        return cls(effects, configuration, (environment, pool, contact, settings))
 
     def __init__(self, effects, configuration, constants):
-        if 'collisions' in effects:
-            raise InvalidInput('backend: cuda does not run the collisions effect yet (the '
-                               'contact solvers run on the CPU backend only)')
         reason = unavailable()
         if reason is not None:
             raise InvalidInput(f'backend: cuda cannot run here: {reason}')
@@ -54,9 +58,13 @@ class DeviceState:
             kernel = self._kernels[configuration] = self.cuda.jit(
                 advance_source(*configuration))
         self.kernel = kernel
-        environment, pool, contact = constants
+        environment, pool, contact, settings = constants
         self._constants = tuple(self.cuda.to_device(np.ascontiguousarray(array))
                                 for array in (environment, WAVE_TABLE, pool, contact))
+        self.colliding = None  # the steps with collisions (device_steps.py), if listed
+        if 'collisions' in effects:
+            from .device_steps import CollidingSteps
+            self.colliding = CollidingSteps(self.cuda, configuration, constants)
         self._arrays = {}  # name -> its device array
         self._pinned = {}  # name -> a pinned host buffer it comes home through
         self._stale = set(ARRAYS)  # the host's arrays the device does not have yet
@@ -64,6 +72,12 @@ class DeviceState:
         self._put_back = self.cuda.to_device(np.zeros(1, dtype=np.int64))
         self._failed = None
         self._configured = {}  # count -> the kernel's launch configuration for it
+
+    def memory_home(self, memory):
+        """With collisions, the device's contact memory into the host's (the Simulation's
+        arrays, as last handed to run)."""
+        if self.colliding is not None:
+            self.colliding.memory_home(memory)
 
     def host_changed(self, names=ARRAYS):
         """The host wrote these arrays of the spheres (all by default): they go up before
@@ -122,20 +136,28 @@ class DeviceState:
                             wave_table, pool, contact, self._failed, self._put_back, steps,
                             dt)
 
-    def run(self, spheres, steps, dt):
-        """`steps` steps of dt s in one launch; spheres: a Spheres, or anything with its
-        arrays (ARRAYS) and count. Returns (how many times the step guard put a sphere
-        back, the indices of the spheres it put back)."""
+    def run(self, spheres, steps, dt, remembered=None):
+        """`steps` steps of dt s in one launch (with collisions, three launches a step);
+        spheres: a Spheres, or anything with its arrays (ARRAYS) and count; remembered:
+        with collisions, the Simulation's (identity, contact memory). Returns (how many
+        times the step guard put a sphere back, the indices of the spheres it put back)."""
         self._upload(spheres)
         count = spheres.count
-        if count:  # none steps too: it compiles the kernel (Simulation.prepare), moves nothing
+        put_back = 0
+        if count and self.colliding is not None:
+            self.colliding.remembered(*remembered)
+            arrays = self._arrays
+            put_back = self.colliding.run(
+                arrays, tuple(arrays[name] for name in PROPERTIES), self._constants,
+                self._failed, self._put_back, steps, dt)
+        elif count:  # none steps too: it compiles the kernel (prepare), moves nothing
             configured, arguments = self.launch(count, steps, dt)
             configured(*arguments)
-            if steps:
-                self._host_behind = True
-                for name in STATE:  # stale until brought home (bring_home)
-                    getattr(spheres, name).flags.writeable = False
-        put_back = int(self._put_back.copy_to_host()[0])  # waits for the launch
+        if count and steps:
+            self._host_behind = True
+            for name in STATE:  # stale until brought home (bring_home)
+                getattr(spheres, name).flags.writeable = False
+        put_back += int(self._put_back.copy_to_host()[0])  # waits for the launch
         if not put_back:
             return 0, np.empty(0, dtype=np.intp)
         indices = np.flatnonzero(self._failed.copy_to_host())

@@ -78,9 +78,9 @@ class DeviceDetect:
     """detect_contacts on the GPU. detect() takes the step's device arrays and returns the
     Contacts' arrays on the device, by name."""
 
-    def __init__(self):
+    def __init__(self, library=None):
         self.cuda = load_cuda()
-        self.library = SortLibrary(self.cuda)
+        self.library = library or SortLibrary(self.cuda)
         self.kernels = compiled(KERNELS)
 
     def detect(self, old_position, old_velocity, position, velocity, radius, dt):

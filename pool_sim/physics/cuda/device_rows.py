@@ -16,10 +16,10 @@ from .rows_kernels import KERNELS
 class DeviceRows:
     """indices() then fill() make a step's rows on the GPU."""
 
-    def __init__(self):
+    def __init__(self, library=None):
         self.cuda = load_cuda()
         self.kernels = compiled(KERNELS)
-        self.library = SortLibrary(self.cuda)
+        self.library = library or SortLibrary(self.cuda)
 
     def indices(self, pairs, order, state, identity, faces, has_faces):
         """{sphere, row_of, state_row, faces_of, face_start, ends, keys, homes, by_home}:
