@@ -147,9 +147,11 @@ class DeviceState:
         if count and self.colliding is not None:
             self.colliding.remembered(*remembered)
             arrays = self._arrays
-            put_back = self.colliding.run(
-                arrays, tuple(arrays[name] for name in PROPERTIES), self._constants,
-                self._failed, self._put_back, steps, dt)
+            properties = tuple(arrays[name] for name in PROPERTIES)
+            if not steps:  # compiles the kernels, on copies: moves nothing
+                self.colliding.warm_up(arrays, properties, self._constants, dt)
+            put_back = self.colliding.run(arrays, properties, self._constants, self._failed,
+                                          self._put_back, steps, dt)
         elif count:  # none steps too: it compiles the kernel (prepare), moves nothing
             configured, arguments = self.launch(count, steps, dt)
             configured(*arguments)

@@ -58,6 +58,27 @@ class CollidingSteps:
             for host, device in zip(memory, self._memory):
                 device.copy_to_host(host)
 
+    def warm_up(self, arrays, properties, constants, dt):
+        """Compiles every kernel a step of dt s from the spheres' state reaches, by taking
+        that step on copies (Simulation.prepare: the node's first step does not stall on
+        numba-cuda's compiler); nothing the spheres or the memory hold changes."""
+        cuda = self.cuda
+
+        def copy(array):
+            made = cuda.device_array_like(array)
+            made.copy_to_device(array)
+            return made
+        kept = self._memory
+        self._memory = tuple(copy(array) for array in kept)
+        count = arrays['position'].shape[1]
+        try:
+            self.run({**arrays, 'position': copy(arrays['position']),
+                      'velocity': copy(arrays['velocity'])}, properties, constants,
+                     cuda.to_device(np.zeros(count, dtype=np.uint8)),
+                     cuda.to_device(np.zeros(1, dtype=np.int64)), 1, dt)
+        finally:
+            self._memory = kept
+
     def run(self, arrays, properties, constants, failed, put_back, steps, dt):
         """`steps` steps of dt s on DeviceState's arrays (position and velocity are
         swapped with the spare pair each step: arrays names the current ones after);
