@@ -3,7 +3,7 @@ step of the same host on one core and on every core, and how far the two backend
 
     python3 -m benchmarks.gpu [--sizes 10000 1000000 10000000 100000000] [--out results/gpu]
 
-Needs only numpy, numba, numba-cuda and PyYAML (no ROS): made to run as one prepared
+Needs only numpy, numba, numba-cuda, PyYAML, and for the collisions CuPy and scipy (no ROS): made to run as one prepared
 script on a GPU machine in a few minutes. Writes gpu.md (the tables) and gpu.csv to --out.
 Under NUMBA_ENABLE_CUDASIM=1 (and NUMBA_DISABLE_JIT=1) it runs in numba's CUDA simulator,
 which the tests do with a few spheres to keep it working; its figures then mean nothing.
@@ -19,8 +19,10 @@ What it measures, every figure a median:
   ratio, where its arrays fit the host (sizes up to CPU_MAX_SPHERES);
 - CPU-GPU agreement: the same scene stepped by Simulation on both backends, the largest
   difference in position after AGREEMENT_STEPS steps;
-- the soft step's solve stage, at rest and landing, at --solve-sizes (benchmarks/gpu_solve.py:
-  its section of gpu.md, and gpu_solve.csv).
+- colliding spheres stepped whole on the GPU, at rest and landing, at --colliding-sizes
+  (benchmarks/gpu_colliding.py: its section of gpu.md, and gpu_colliding.csv);
+- the collision pass by stage, at rest and landing, at --solve-sizes (benchmarks/
+  gpu_solve.py: its section of gpu.md, and gpu_solve.csv).
 """
 import argparse
 import os
@@ -32,7 +34,7 @@ import types
 import numba
 import numpy as np
 
-from benchmarks import gpu_solve
+from benchmarks import gpu_colliding, gpu_solve
 from benchmarks.common import provenance, write_csv
 from pool_sim.physics import DEFAULT_EFFECTS, Scene, Simulation, Spheres, stepper
 from pool_sim.physics.cuda import blocks_for, load_cuda, simulated, THREADS_PER_BLOCK
@@ -176,6 +178,10 @@ def main():
     parser.add_argument('--solve-sizes', type=int, nargs='*',
                         default=[100_000, 1_000_000])
     parser.add_argument('--solve-repeats', type=int, default=11)
+    parser.add_argument('--colliding-sizes', type=int, nargs='*',
+                        default=[100_000, 1_000_000])
+    parser.add_argument('--colliding-steps', type=int, default=20)
+    parser.add_argument('--settle-s', type=float, default=1.0)
     parser.add_argument('--out', default='results/gpu')
     arguments = parser.parse_args()
     cuda = load_cuda()
@@ -198,7 +204,8 @@ def main():
     columns = list(rows[0]) + [c for c in ('cpu_one_core_ns', 'cpu_all_cores_ns')
                                if c not in rows[0]]
     command = ('python3 -m benchmarks.gpu --sizes ' + ' '.join(map(str, arguments.sizes))
-               + ' --solve-sizes ' + ' '.join(map(str, arguments.solve_sizes)))
+               + ' --solve-sizes ' + ' '.join(map(str, arguments.solve_sizes))
+               + ' --colliding-sizes ' + ' '.join(map(str, arguments.colliding_sizes)))
     text = '\n\n'.join([
         provenance(command) + f' GPU: {device}.',
         f'The default effects ({", ".join(DEFAULT_EFFECTS)}), no collisions; dt {DT} s; '
@@ -213,6 +220,13 @@ def main():
         f'position, {velocity_gap:.3g} m/s in velocity.'])
     (out / 'gpu.md').write_text(text + '\n')  # before the collisions: kept if they fail
     print(text, flush=True)
+    if arguments.colliding_sizes:  # first: the whole step, which needs no CPU's rows
+        _, colliding_text = gpu_colliding.measure(
+            arguments.colliding_sizes, arguments.colliding_steps, arguments.settle_s, out,
+            command)
+        text += '\n\n' + colliding_text
+        (out / 'gpu.md').write_text(text + '\n')
+        print(colliding_text, flush=True)
     if arguments.solve_sizes:
         _, solve_text = gpu_solve.measure(arguments.solve_sizes, arguments.solve_repeats,
                                           gpu_solve.CPU_MAX, out, command)

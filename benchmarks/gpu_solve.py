@@ -327,24 +327,31 @@ def failure(error):
 
 
 def measure(sizes, repeats, cpu_max, out, command):
-    """(rows, the section of gpu.md they make). gpu_solve.csv and gpu_solve.md (command's
-    provenance) are written into the folder out after each row, so that a run cut short
-    (a lent GPU's time runs out) keeps what it measured; a row that fails says why."""
+    """(rows, the section of gpu.md they make), written as they come (by_scene)."""
+    return by_scene(sizes, lambda count, landing: solve_row(count, landing, repeats, cpu_max),
+                    'gpu_solve', lambda rows: section(rows, repeats), out, command)
+
+
+def by_scene(sizes, row_of, stem, section_of, out, command):
+    """(rows: row_of(count, landing) of each size and scene, section_of(rows)). stem.csv
+    and stem.md (command's provenance) are written into the folder out after each row, so
+    that a run cut short (a lent GPU's time runs out) keeps what it measured; a row that
+    fails says why."""
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     for count in sizes:
         for landing in (False, True):
             try:
-                rows.append(solve_row(count, landing, repeats, cpu_max))
+                rows.append(row_of(count, landing))
             except Exception as error:  # noqa: BLE001 (one run on a lent GPU: keep the rest)
                 rows.append({'scene': SCENES[landing], 'spheres': count,
                              'failed': failure(error)})
             print(rows[-1], flush=True)
-            write_csv(uniform(rows), out / 'gpu_solve.csv')
-            (out / 'gpu_solve.md').write_text(
-                provenance(command) + '\n\n' + section(rows, repeats) + '\n')
-    return rows, section(rows, repeats)
+            write_csv(uniform(rows), out / f'{stem}.csv')
+            (out / f'{stem}.md').write_text(
+                provenance(command) + '\n\n' + section_of(rows) + '\n')
+    return rows, section_of(rows)
 
 
 def section(rows, repeats):
@@ -362,7 +369,10 @@ def section(rows, repeats):
         'difference of their normals. cpu_detect_and_rows: detection and contact_rows on '
         "the CPU, one run (the first row's compiles them); gpu_rows: the contacts' indices "
         "made and the rows filled on the GPU (from the CPU's colour slots, sent up within "
-        "the time), rows_gap their largest difference from the CPU's.",
+        "the time), rows_gap their largest difference from the CPU's; gpu_colour and "
+        'gpu_support: the colouring (its colours and rounds) and the support order '
+        "(support_same: the CPU's, waves and all) made on the GPU; gpu_pass: the whole "
+        'collision pass on the GPU (DeviceCollisions.resolve), from the step\'s arrays.',
         table(rows)])
 
 

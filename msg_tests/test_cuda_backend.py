@@ -256,7 +256,8 @@ def test_the_gpu_benchmark_runs_in_the_simulator_and_writes_its_tables(tmp_path)
     child = subprocess.run(
         [sys.executable, '-m', 'benchmarks.gpu', '--sizes', '16', '40', '--repeats', '1',
          '--launch-spheres', '8', '--agreement-spheres', '12', '--agreement-steps', '4',
-         '--solve-sizes', '12', '--solve-repeats', '1', '--out', str(tmp_path)], cwd=ROOT,
+         '--solve-sizes', '12', '--solve-repeats', '1', '--colliding-sizes', '12',
+         '--colliding-steps', '1', '--settle-s', '0.01', '--out', str(tmp_path)], cwd=ROOT,
         env=simulator_environment(),
         capture_output=True, text=True, timeout=300)
     assert child.returncode == 0, child.stderr[-4000:]
@@ -269,6 +270,14 @@ def test_the_gpu_benchmark_runs_in_the_simulator_and_writes_its_tables(tmp_path)
     # The solve stage: both scenes, both modes, the CPU's numbers to the bit (a simulator
     # does not fuse multiplies and adds).
     assert '## Collisions on the GPU: detection and the solve stage' in text
+    assert '## Colliding spheres stepped on the GPU' in text
+    colliding = (tmp_path / 'gpu_colliding.csv').read_text().splitlines()
+    assert len(colliding) == 3 and colliding[1].startswith('at rest,12,')
+    header = colliding[0].split(',')
+    for line in colliding[1:]:
+        row = dict(zip(header, line.split(',')))
+        assert float(row['step_ms']) > 0.0 and row['finite'] == 'True'
+        assert float(row['settled_s']) >= 0.01 and float(row['rms_speed']) >= 0.0
     solve = (tmp_path / 'gpu_solve.csv').read_text().splitlines()
     assert len(solve) == 3 and solve[1].startswith('at rest,12,') and solve[2].startswith(
         'landing,12,')
@@ -282,5 +291,6 @@ def test_the_gpu_benchmark_runs_in_the_simulator_and_writes_its_tables(tmp_path)
         assert float(row['gpu_colour_ms']) > 0.0 and float(row['gpu_support_ms']) > 0.0
         assert row['support_same'] == 'True' and int(row['gpu_colours']) >= 2
         assert int(row['colour_rounds']) >= 2 and int(row['wave_rounds']) >= 1
+        assert float(row['gpu_pass_ms']) > 0.0 and int(row['pass_put_back']) == 0
         assert all(float(row[f'{mode}_{what}_gap']) == 0.0 for mode in ('launches',
                    'cooperative') for what in ('velocity', 'moved'))
