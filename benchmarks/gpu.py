@@ -3,8 +3,9 @@ step of the same host on one core and on every core, and how far the two backend
 
     python3 -m benchmarks.gpu [--sizes 10000 1000000 10000000 100000000] [--out results/gpu]
 
-Needs only numpy, numba, numba-cuda, PyYAML, and for the collisions CuPy and scipy (no ROS): made to run as one prepared
-script on a GPU machine in a few minutes. Writes gpu.md (the tables) and gpu.csv to --out.
+Needs only numpy, numba, numba-cuda, PyYAML, and for the collisions CuPy and scipy (no
+ROS): made to run as one prepared script on a GPU machine in a few minutes. Writes gpu.md
+(the tables) and gpu.csv to --out.
 Under NUMBA_ENABLE_CUDASIM=1 (and NUMBA_DISABLE_JIT=1) it runs in numba's CUDA simulator,
 which the tests do with a few spheres to keep it working; its figures then mean nothing.
 
