@@ -40,18 +40,21 @@ def scene(backend, integrator, effects, names):
     # On the floor and at the ceiling, thrown at them; afloat.
     position[:3, 2], velocity[:2, 2], radius[:2] = [-3.9, 3.9, 0.0], [-2.0, 2.0], 0.1
     colliding = {}
-    if 'collisions' in effects:
-        position[3:] = np.column_stack([rng.uniform(-0.15, 0.15, (count - 3, 2)),
-                                        rng.uniform(-3.85, -3.5, count - 3)])
-        velocity[3:] *= 0.3
-        colliding = {'contact_solver': 'soft_step', 'soft_step.colouring': 'priority'}
+    if 'collisions' in effects:  # a crowd on the floor, 3 000 kg/m^3: it piles up there
+        above_floor = rng.uniform(0.0, 0.25, count - 3)
+        above_floor[::2] = 0.0  # on it
+        position[3:] = np.column_stack([rng.uniform(-0.2, 0.2, (count - 3, 2)),
+                                        -4.0 + radius[3:] + above_floor])
+        velocity[3:] = 0.0
+        colliding = {'contact_solver': 'soft_step', 'soft_step.colouring': 'priority',
+                     'spheres.mass': (3000.0 * 4.0 / 3.0 * np.pi * radius**3).tolist()}
     return Scene({'sphere_names': names, 'backend': backend, 'integrator': integrator,
-                  **colliding,
                   'effects': effects, 'spheres.position': position.ravel().tolist(),
                   'spheres.velocity': velocity.ravel().tolist(),
                   'spheres.radius': radius.tolist(),
                   'spheres.mass': np.exp(rng.uniform(-3.0, 3.0, count)).tolist(),
-                  'spheres.lift_coefficient': rng.uniform(-1.0, 1.0, count).tolist()})
+                  'spheres.lift_coefficient': rng.uniform(-1.0, 1.0, count).tolist(),
+                  **colliding})
 
 
 def session(backend, integrator, effects, spheres=SPHERES, steps=lambda k: k):

@@ -130,6 +130,22 @@ def rows_cases():
             'rows_levels': rows_case(column_scene(smallest_radius=0.008), 0.32)}
 
 
+def resolve_cases():
+    """{label: rows_case}: the collision pass's edges, from the landing column: a member's
+    smooth end at an infinite speed (the guard puts spheres back), radii a thousand times
+    smaller (no pairs: the memory is emptied), and one sphere alone."""
+    landing = rows_case(column_scene(), 0.28)
+    hostile = {name: value.copy() for name, value in landing.items()}
+    hostile['velocity'][2, hostile['sphere'][0]] = -np.inf
+    apart = {**landing, 'radius': landing['radius'] * 1e-3}
+    single = dict(landing)
+    for name in ('old_position', 'old_velocity', 'position', 'velocity'):
+        single[name] = landing[name][:, :1]
+    for name in ('memory_keys', 'memory_forces', 'memory_held', 'identity', 'mass', 'radius'):
+        single[name] = landing[name][:1]
+    return {'resolve_hostile': hostile, 'resolve_apart': apart, 'resolve_single': single}
+
+
 def gpu_rows(case):
     """DeviceRows.indices, then fill from them and the CPU's slots, on a rows_case: their
     results on the host (the indices' as index_*)."""
@@ -318,7 +334,8 @@ def cpu_solve(case):
 
 def write_cases(path):
     """cases() and detection_cases() into an npz, each array as label.name."""
-    every = {**cases(), **detection_cases(), **rows_cases(), **order_cases()}
+    every = {**cases(), **detection_cases(), **rows_cases(), **order_cases(),
+             **resolve_cases()}
     np.savez(path, **{f'{label}.{name}': value for label, case in every.items()
                       for name, value in case.items()})
 
@@ -363,6 +380,10 @@ def main(cases_path, out_path):
     for order in THREAD_ORDERS:
         numbered(order)
         for label, case in read_cases(cases_path).items():
+            if label.startswith('resolve'):
+                results.update({f'{label}.{order}.{name}': value
+                                for name, value in gpu_resolve(case, up).items()})
+                continue
             if label.startswith(('rows', 'order')):
                 made = gpu_orders(case, up)
                 if label.startswith('rows'):

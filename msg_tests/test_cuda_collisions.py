@@ -6,6 +6,7 @@ device_detect.py), the rows (rows_kernels.py, device_rows.py) and the sweep's or
 velocities the CPU's substeps and restitution pass leave, detection finds the CPU's
 contacts, the rows are the CPU's, and the orders are the CPU functions', bit for bit."""
 import importlib
+import importlib.util
 import subprocess
 import sys
 import types
@@ -192,7 +193,8 @@ def test_the_contacts_indices_made_on_the_gpu_are_the_cpu_s(solved, label, order
 
 
 @pytest.mark.parametrize('order', THREAD_ORDERS)
-@pytest.mark.parametrize('label', ['rows_landing', 'rows_rest', 'rows_levels'])
+@pytest.mark.parametrize('label', ['rows_landing', 'rows_rest', 'rows_levels',
+                                   'resolve_hostile', 'resolve_apart', 'resolve_single'])
 def test_the_collision_pass_on_the_gpu_is_the_cpu_s_with_its_colouring_bit_for_bit(
         solved, label, order):
     # Detection, rows, orders, solve, memory and write-back: resolve_collisions' step with
@@ -218,8 +220,13 @@ def test_the_collision_pass_cases_exercise_what_they_claim(solved):
         # The GPU's colouring is not the CPU's, so neither is its step.
         slot = on_gpu[f'{label}.forward.order_slot']
         assert not np.array_equal(slot, case['slot']), label
-    landing = on_gpu['rows_landing.forward.resolved_velocity']
-    assert not np.array_equal(landing, chosen['rows_landing']['velocity'])
+    # The edges: the guard puts back spheres a non-finite member's row touched; with no
+    # pairs, or one sphere, last step's memory is emptied.
+    assert on_gpu['resolve_hostile.forward.resolved_put_back'] >= 2
+    assert np.isfinite(on_gpu['resolve_hostile.forward.resolved_memory_forces']).all()
+    for label in ('resolve_apart', 'resolve_single'):
+        assert chosen[label]['memory_held'].sum() > 0, label
+        assert on_gpu[f'{label}.forward.resolved_memory_held'].sum() == 0, label
 
 
 ORDER_LABELS = ['rows_landing', 'rows_rest', 'rows_levels', 'order_crowd', 'order_star',
@@ -445,4 +452,22 @@ def test_detection_on_a_gpu_without_cupy_is_refused_with_the_install_command():
     from pool_sim.physics.cuda.device_detect import CUPY_COMMAND, DeviceDetect
     with pytest.raises(ImportError, match='sorts with CuPy') as refused:
         DeviceDetect()
+    assert CUPY_COMMAND in str(refused.value)
+
+
+def test_collisions_on_a_gpu_without_cupy_are_refused_at_start_with_the_install_command(
+        monkeypatch):
+    # As if a GPU were here (unavailable() says none is): the scene is refused as invalid
+    # input, which the node reports and exits on, not with a traceback.
+    pytest.importorskip('numba.cuda')
+    if simulated() or importlib.util.find_spec('cupy') is not None:
+        pytest.skip('the simulator sorts with numpy; or CuPy is installed here')
+    from pool_sim.physics import DEFAULT_EFFECTS, InvalidInput, Scene
+    from pool_sim.physics.cuda import device
+    from pool_sim.physics.cuda.device_detect import CUPY_COMMAND
+    monkeypatch.setattr(device, 'unavailable', lambda: None)
+    scene = Scene({'sphere_names': ['a', 'b'], 'backend': 'cuda', 'contact_solver': 'soft_step',
+                   'effects': [*DEFAULT_EFFECTS, 'collisions']})
+    with pytest.raises(InvalidInput, match='cannot run collisions here') as refused:
+        device.DeviceState.for_scene(scene)
     assert CUPY_COMMAND in str(refused.value)

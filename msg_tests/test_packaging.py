@@ -37,9 +37,10 @@ ROSDEP_KEYS = {'numpy': 'python3-numpy', 'yaml': 'python3-yaml', 'numba': 'pytho
                'packaging': 'python3-packaging'}
 # The core's imported modules by their distribution's name on PyPI.
 DISTRIBUTIONS = {'numpy': 'numpy', 'numba': 'numba', 'yaml': 'PyYAML'}
-# Imported only on a machine with a GPU, by contact detection there (physics/cuda/
-# device_detect.py: CuPy's sort), which no scene runs yet (backend: cuda refuses
-# collisions): to be declared, as an extra and a rosdep key, once one does. docs/gpu.md.
+# Imported only on a machine with a GPU, by the collision pass there (physics/cuda/
+# device_detect.py: CuPy's sorts), and only for `backend: cuda` with collisions, which is
+# refused with the install command where CuPy is missing. Not in the cuda extra: an extra's
+# every line is pinned by requirements-test.txt, which a machine without a GPU installs.
 GPU_ONLY = {'cupy'}
 # Modules of this repository that tests import as top-level names (msg_tests/, scripts/).
 LOCAL_MODULES = {path.stem for folder in ('msg_tests', 'scripts', 'benchmarks')

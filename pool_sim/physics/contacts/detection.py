@@ -109,8 +109,9 @@ def counting_sort(keys, buckets, wholes, used_whole):
 @numba.njit(error_model='numpy', inline='always')
 def _cell_of(coordinate, origin, size, cells):
     """The cell (0..cells-1) a coordinate m falls in along one axis of a level's grid; 0
-    for one that is not a number (a sphere the step guard will put back), on a CPU and a
-    GPU alike (which convert NaN to an integer differently)."""
+    for one that is not a number (a sphere the step guard will put back). Clamped as a
+    float, before the conversion: numba's CUDA simulator, which runs it as Python, cannot
+    convert NaN to an integer (compiled code gave 0 too, by overflow)."""
     # max(0.0, NaN) is 0.0 (min and max keep their first argument unless the other wins).
     return int(min(max(0.0, (coordinate - origin) / size), cells - 1.0))
 

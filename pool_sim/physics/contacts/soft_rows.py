@@ -250,20 +250,25 @@ def remember(rows, slot, keys, homes, by_home, memory_keys, memory_forces, memor
 def remember_range(rows, slot, keys, homes, by_home, memory_keys, memory_forces,
                    memory_held, per_second, first, last):
     """remember's contacts by_home[first:last], in order: each as forces (N: its impulses
-    x per_second) in the next free slot of its home row, if the row has one. (A GPU thread
-    takes one home row's range.)"""
+    x per_second) in the next free slot of its home row, if the row has one, and if they
+    are finite (a step the guard undid leaves no NaN to warm-start the next one with). (A
+    GPU thread takes one home row's range.)"""
     for q in range(first, last):
         c = by_home[q]
         home = homes[c]
         k = memory_held[home]
-        if k == CONTACTS_PER_SPHERE:
-            continue
         s = slot[c]
+        normal, fx = rows[s, NORMAL] * per_second, rows[s, FX] * per_second
+        fy, fz = rows[s, FY] * per_second, rows[s, FZ] * per_second
+        # v * 0 is 0 for a finite v, NaN otherwise (step_guard.finite's test).
+        if k == CONTACTS_PER_SPHERE or (normal * 0.0 + fx * 0.0 + fy * 0.0
+                                        + fz * 0.0) != 0.0:
+            continue
         memory_keys[home, k] = keys[c]
-        memory_forces[home, k, 0] = rows[s, NORMAL] * per_second
-        memory_forces[home, k, 1] = rows[s, FX] * per_second
-        memory_forces[home, k, 2] = rows[s, FY] * per_second
-        memory_forces[home, k, 3] = rows[s, FZ] * per_second
+        memory_forces[home, k, 0] = normal
+        memory_forces[home, k, 1] = fx
+        memory_forces[home, k, 2] = fy
+        memory_forces[home, k, 3] = fz
         memory_held[home] = k + 1
 
 

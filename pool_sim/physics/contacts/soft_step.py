@@ -108,7 +108,8 @@ def resolve_collisions(old_position, old_velocity, position, velocity, mass, rad
     ready = contact_rows(contacts, used_real, used_whole, old_position, old_velocity,
                          position, velocity, mass, radius, faces, has_faces, contact,
                          has_friction, identity, memory_keys, memory_forces, memory_held,
-                         settings, threshold, dt, reals, wholes, settings[4] != 0.0)
+                         settings, threshold, dt, reals, wholes,
+                         settings.size > 4 and settings[4] != 0.0)
     return settle(ready, old_position, position, velocity, failed, flagged, contact[0],
                   memory_keys, memory_forces, memory_held, settings, threshold, dt)
 

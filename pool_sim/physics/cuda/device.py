@@ -23,7 +23,8 @@ class DeviceState:
 
     configuration: (integrator code, Listed (scalar), has_contact, has_friction), as
     Stepper.configuration names them. constants: (environment (12,), pool (6,), contact
-    (4,)) float64, as the CPU step takes them.
+    (4,), the soft step's settings (5,)) float64, as the CPU step takes them
+    (stepper.scene_constants).
     """
 
     _kernels = {}  # configuration -> the compiled kernel, shared by every DeviceState
@@ -58,13 +59,17 @@ class DeviceState:
             kernel = self._kernels[configuration] = self.cuda.jit(
                 advance_source(*configuration))
         self.kernel = kernel
-        environment, pool, contact, settings = constants
-        self._constants = tuple(self.cuda.to_device(np.ascontiguousarray(array))
-                                for array in (environment, WAVE_TABLE, pool, contact))
         self.colliding = None  # the steps with collisions (device_steps.py), if listed
         if 'collisions' in effects:
             from .device_steps import CollidingSteps
-            self.colliding = CollidingSteps(self.cuda, configuration, constants)
+            try:
+                self.colliding = CollidingSteps(self.cuda, configuration, constants)
+            except ImportError as error:  # CuPy, for the sorts (device_detect.py)
+                raise InvalidInput(f'backend: cuda cannot run collisions here: {error}') \
+                    from None
+        environment, pool, contact, _ = constants
+        self._constants = tuple(self.cuda.to_device(np.ascontiguousarray(array))
+                                for array in (environment, WAVE_TABLE, pool, contact))
         self._arrays = {}  # name -> its device array
         self._pinned = {}  # name -> a pinned host buffer it comes home through
         self._stale = set(ARRAYS)  # the host's arrays the device does not have yet
@@ -137,7 +142,7 @@ class DeviceState:
                             dt)
 
     def run(self, spheres, steps, dt, remembered=None):
-        """`steps` steps of dt s in one launch (with collisions, three launches a step);
+        """`steps` steps of dt s in one launch (with collisions, a step's passes each);
         spheres: a Spheres, or anything with its arrays (ARRAYS) and count; remembered:
         with collisions, the Simulation's (identity, contact memory). Returns (how many
         times the step guard put a sphere back, the indices of the spheres it put back)."""

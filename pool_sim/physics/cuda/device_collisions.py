@@ -7,9 +7,8 @@ contacts remembered and the members written back with the step guard (settle_ker
 It is resolve_collisions with the contacts coloured as colouring.colour_by_priority
 colours them (the GPU's order, colouring.py says why): soft_step.contact_rows(...,
 by_priority=True) and soft_step.settle on the CPU make the same step, to the bit in
-numba's simulator. What is left to the step around it (the smooth step before, the faces
-of the spheres in no pair after) is not here: `backend: cuda` does not take `collisions`
-yet (docs/gpu.md).
+numba's simulator. The step around it (the smooth step before, the faces of the spheres
+in no pair after) is device_steps.py's.
 """
 import numpy as np
 
@@ -42,7 +41,7 @@ class DeviceCollisions:
         last step's contacts (memory.contact_memory's arrays), replaced by this step's;
         flagged and failed (n,) uint8 (a member's flag cleared; failed set for a sphere the
         step guard put back); constants: (faces (6,) m, has_faces, contact (4,),
-        has_friction, resting_speed m/s, settings (4,), dt s), as resolve_collisions takes
+        has_friction, resting_speed m/s, settings (5,), dt s), as resolve_collisions takes
         them. Returns how many spheres the step guard put back."""
         cuda, kernels = self.cuda, self.kernels
         faces, has_faces, contact, has_friction, resting_speed, settings, dt = constants

@@ -66,7 +66,7 @@ class DeviceRows:
         device, DeviceOrder.colour's; or on the host, a colouring's); spheres: (mass,
         radius) (n,) device arrays; memory: (keys, forces, held), last step's, on the
         device; step: (old_position, old_velocity, position, velocity) (3, n) device
-        arrays; constants: (faces (6,), contact (4,), has_friction, settings (4,), dt s,
+        arrays; constants: (faces (6,), contact (4,), has_friction, settings (5,), dt s,
         threshold m/s) as contact_rows takes them."""
         cuda, kernels = self.cuda, self.kernels
         if not hasattr(slot, 'copy_to_host'):  # a host array

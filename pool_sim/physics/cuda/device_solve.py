@@ -1,12 +1,9 @@
 """DeviceSolve: a step's soft-step substeps and restitution pass (what soft_step.py's
 _substeps and restitution_pass do on the CPU) on the GPU, on the rows contact_rows made.
 
-It is the solve stage of collisions on the GPU, measured and tested on its own. The
-contacts are found on the GPU too (device_detect.py), their rows made there
-(device_rows.py) and their orders (device_order.py), but remembering the contacts and
-writing the spheres back have no GPU form yet (docs/gpu.md), so `backend: cuda` does not
-take `collisions` yet. solve() takes its support arrays from DeviceOrder.support or from
-upload().
+It is the solve stage of the collision pass on the GPU (device_collisions.py), measured and
+tested on its own too. solve() takes its support arrays from DeviceOrder.support (the
+pass) or from upload() (a Prepared made on the CPU: the tests and benchmarks).
 """
 import math
 

@@ -2,7 +2,9 @@
 run_steps' three passes (physics/stepper.py), each on the device: the smooth step
 (kernels.smooth_source, each sphere's face mark), the soft step's collision pass
 (DeviceCollisions), then the faces and the step guard of the spheres still marked
-(kernels.faces_source). Between steps nothing comes back but the guard's count.
+(kernels.faces_source). What comes back to the host each step is small: the sizes the
+collision pass allocates by (its pairs, members, faces, contacts), a count each round of
+the colouring and the waves, and the guard's count; the spheres' state stays.
 
 The contact memory and the spheres' identities live on the device too: sent when the
 Simulation hands over new ones (a reset, a spawn or a remove), brought home when it needs
