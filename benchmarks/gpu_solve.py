@@ -24,7 +24,6 @@ cooperative launch) and the CPU's (soft_step._substeps and restitution_pass, one
 to --cpu-max spheres), and how far the GPU's velocities and moves are from the CPU's.
 """
 import argparse
-import math
 import pathlib
 import statistics
 import time
@@ -37,7 +36,7 @@ from pool_sim.physics import DEFAULT_EFFECTS, Scene, Spheres
 from pool_sim.physics.contacts import soft_step
 from pool_sim.physics.contacts.detection import detect_contacts
 from pool_sim.physics.contacts.layers import sweep_waves
-from pool_sim.physics.cuda.device_collisions import DeviceCollisions
+from pool_sim.physics.cuda.device_collisions import DeviceCollisions, pass_constants
 from pool_sim.physics.cuda.device_detect import DeviceDetect
 from pool_sim.physics.cuda.device_order import DeviceOrder
 from pool_sim.physics.cuda.device_rows import DeviceRows
@@ -176,11 +175,10 @@ def pass_timing(inputs, repeats):
     spheres, effects, dt = colliding.spheres, colliding.scene['effects'], colliding.max_step
     collisions = DeviceCollisions()
     cuda = collisions.cuda
-    _, _, pool, contact, settings = colliding._constants
-    gx, gy, gz = colliding.environment.gravity  # the stepper's resting speed, |g| dt
-    world = (tuple(map(float, pool)), 'contact' in effects, tuple(map(float, contact)),
-             'friction' in effects, math.sqrt(gx * gx + gy * gy + gz * gz) * dt,
-             tuple(map(float, settings)), dt)
+    environment, _, pool, contact, settings = colliding._constants
+    world = pass_constants(environment, pool, contact, settings,
+                           ('contact' in effects, 'friction' in effects, 'gravity' in effects),
+                           dt)
     count = spheres.count
     pristine = [*state, *after, *memory, np.ones(count, np.uint8), np.zeros(count, np.uint8)]
     device = [cuda.to_device(np.ascontiguousarray(array)) for array in pristine]

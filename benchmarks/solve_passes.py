@@ -72,9 +72,9 @@ def step_inputs(colliding_scene, seconds, initial_spheres=None):
     return colliding, memory, state, after, reals, wholes
 
 
-def rows_of(colliding, memory, state, after, reals, wholes, by_priority=False):
-    """prepared_from's tuple, from step_inputs' (by_priority: coloured as the GPU colours,
-    soft_step.contact_rows')."""
+def rows_of(colliding, memory, state, after, reals, wholes):
+    """prepared_from's tuple, from step_inputs' (coloured as contacts are found, the CPU's
+    default)."""
     spheres, effects, dt = colliding.spheres, colliding.scene['effects'], colliding.max_step
     contacts, used_real, used_whole = detect_contacts(*state, *after, spheres.radius, dt,
                                                       reals, wholes)
@@ -85,7 +85,7 @@ def rows_of(colliding, memory, state, after, reals, wholes, by_priority=False):
                                    spheres.mass, spheres.radius, tuple(pool),
                                    'contact' in effects, tuple(contact),
                                    'friction' in effects, colliding._identity, *memory,
-                                   settings, threshold, dt, reals, wholes, by_priority)
+                                   settings, threshold, dt, reals, wholes, False)
     return ready, settings, dt, threshold, contact[0]
 
 

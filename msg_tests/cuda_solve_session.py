@@ -275,25 +275,18 @@ def gpu_resolve(case, up):
 
 
 def cpu_resolve(case):
-    """resolve_collisions on the CPU with the GPU's colouring: detect_contacts,
-    contact_rows(..., by_priority=True), settle; what gpu_resolve should leave."""
+    """soft_step.resolve_collisions on the CPU, coloured as the GPU colours (its settings'
+    last entry 1): what gpu_resolve should leave."""
     from pool_sim.physics.contacts import soft_step
-    from pool_sim.physics.contacts.detection import detect_contacts
     arrays, constants = resolve_inputs(case)
     faces, has_faces, contact, has_friction, resting_speed, settings, dt = constants
-    step = tuple(arrays[name] for name in STEP)
-    memory = tuple(arrays[name] for name in ('memory_keys', 'memory_forces', 'memory_held'))
     none = np.empty(0), np.empty(0, dtype=np.int64)
-    contacts, used_real, used_whole = detect_contacts(*step, case['radius'], dt, *none)
-    threshold = soft_step.RESTING_FACTOR * resting_speed
-    settings = np.array(settings)
-    ready = soft_step.contact_rows(contacts, used_real, used_whole, *step, case['mass'],
-                                   case['radius'], faces, has_faces, contact, has_friction,
-                                   case['identity'], *memory, settings, threshold, dt,
-                                   *none, True)
-    put_back = soft_step.settle(ready, step[0], step[2], step[3], arrays['failed'],
-                                arrays['flagged'], contact[0], *memory, settings, threshold,
-                                dt)
+    put_back = soft_step.resolve_collisions(
+        *(arrays[name] for name in STEP), case['mass'], case['radius'], faces, has_faces,
+        contact, has_friction, resting_speed, (0.0, 0.0, 0.0), True, arrays['failed'], *none,
+        dt, arrays['flagged'], case['identity'],
+        *(arrays[name] for name in ('memory_keys', 'memory_forces', 'memory_held')),
+        np.array([*settings[:4], 1.0]))
     return {**{f'resolved_{name}': arrays[name] for name in RESOLVED},
             'resolved_put_back': np.int64(put_back)}
 

@@ -5,11 +5,13 @@ support order (device_order.py), the substeps and restitution pass (device_solve
 contacts remembered and the members written back with the step guard (settle_kernels.py).
 
 It is resolve_collisions with the contacts coloured as colouring.colour_by_priority
-colours them (the GPU's order, colouring.py says why): soft_step.contact_rows(...,
-by_priority=True) and soft_step.settle on the CPU make the same step, to the bit in
-numba's simulator. The step around it (the smooth step before, the faces of the spheres
+colours them (the GPU's order, colouring.py says why): resolve_collisions on the CPU with
+its settings' last entry 1 (soft_step.colouring: priority) makes the same step, to the bit
+in numba's simulator. The step around it (the smooth step before, the faces of the spheres
 in no pair after) is device_steps.py's.
 """
+import math
+
 import numpy as np
 
 from ..contacts.soft_step import RESTING_FACTOR
@@ -19,6 +21,18 @@ from .device_order import DeviceOrder
 from .device_rows import DeviceRows
 from .device_solve import DeviceSolve
 from .settle_kernels import KERNELS
+
+
+def pass_constants(environment, pool, contact, settings, flags, dt):
+    """resolve()'s constants of a scene's world (stepper.scene_constants' environment (12,),
+    pool (6,), contact (4,) and settings (5,)), flags (has_contact, has_friction, whether
+    gravity is listed) and a step of dt s; the resting speed is run_steps', a step's worth
+    of gravity, sqrt(g . g) dt."""
+    has_contact, has_friction, with_gravity = flags
+    gx, gy, gz = (float(g) for g in environment[:3])
+    resting_speed = math.sqrt(gx * gx + gy * gy + gz * gz) * dt if with_gravity else 0.0
+    return (tuple(map(float, pool)), has_contact, tuple(map(float, contact)), has_friction,
+            resting_speed, tuple(map(float, settings)), dt)
 
 
 class DeviceCollisions:

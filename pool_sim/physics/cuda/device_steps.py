@@ -10,12 +10,10 @@ The contact memory and the spheres' identities live on the device too: sent when
 Simulation hands over new ones (a reset, a spawn or a remove), brought home when it needs
 them (memory_home).
 """
-import math
-
 import numpy as np
 
 from . import grid_for
-from .device_collisions import DeviceCollisions
+from .device_collisions import DeviceCollisions, pass_constants
 from .kernels import faces_source, smooth_source
 
 
@@ -34,12 +32,7 @@ class CollidingSteps:
                 cuda.jit(smooth_source(integrator_code, listed, has_contact)),
                 cuda.jit(faces_source(listed, has_contact, has_friction)))
         self.cuda, self.smooth, self.faces = cuda, *kernels
-        environment, pool, contact, settings = constants
-        gx, gy, gz = (float(g) for g in environment[:3])
-        # run_steps' resting speed, a step's worth of gravity: sqrt(g . g) dt.
-        self._gravity = math.sqrt(gx * gx + gy * gy + gz * gz) if listed.gravity else 0.0
-        self._world = (tuple(map(float, pool)), has_contact, tuple(map(float, contact)),
-                       has_friction, tuple(map(float, settings)))
+        self._world = (constants, (has_contact, has_friction, listed.gravity))
         self.collisions = DeviceCollisions()
         self._sent = (None, None)  # the host's identity and memory last sent
         self._identity = self._memory = None
@@ -93,9 +86,7 @@ class CollidingSteps:
                            self.cuda.device_array((3, count)),
                            self.cuda.device_array(count, dtype=np.uint8))
         environment, wave_table, pool, contact = constants
-        faces, has_faces, contact_values, has_friction, settings = self._world
-        world = (faces, has_faces, contact_values, has_friction, self._gravity * dt, settings,
-                 dt)
+        world = pass_constants(*self._world[0], self._world[1], dt)
         grid = grid_for(count)
         put_back_by_pass = 0
         for _ in range(steps):
