@@ -205,6 +205,24 @@ def test_only_the_named_backends_are_taken(backend):
         Scene({'sphere_names': ['a'], 'backend': backend})
 
 
+@pytest.mark.parametrize('colouring', ['Priority', 'found ', '', 'gpu', 1, 0.5, float('nan'),
+                                       float('inf'), 1e308, None, [], ['priority']])
+def test_only_the_named_colourings_are_taken(colouring):
+    with pytest.raises(InvalidInput, match='soft_step.colouring'):
+        Scene({'sphere_names': ['a'], 'soft_step.colouring': colouring})
+
+
+@pytest.mark.parametrize('colouring, backend, expected', [
+    ('auto', 'cpu', 0.0), ('found', 'cpu', 0.0), ('priority', 'cpu', 1.0),
+    ('auto', 'cuda', 1.0), ('priority', 'cuda', 1.0)])
+def test_each_colouring_reaches_the_solver_s_settings(colouring, backend, expected):
+    # The fifth solver setting (stepper.scene_constants) is what soft_step colours by.
+    from pool_sim.physics.stepper import scene_constants
+    settings = scene_constants(Scene({'sphere_names': ['a'], 'backend': backend,
+                                      'soft_step.colouring': colouring}))[-1]
+    assert settings.shape == (5,) and settings[4] == expected
+
+
 def test_the_node_on_the_simulated_gpu_runs_a_closed_loop_as_on_the_cpu(tmp_path):
     # Through the node's own wiring: lockstep, odometry to the depth keeper, its forces
     # back, set_mass and set_radius services, a reset; each publish reads the GPU's state.
